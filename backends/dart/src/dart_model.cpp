@@ -1,0 +1,258 @@
+#include "dynfilter/dart/dart_model.hpp"
+
+#include <cmath>
+#include <algorithm>
+#include <stdexcept>
+#include <unordered_map>
+
+#include <dart/collision/CollisionGroup.hpp>
+#include <dart/collision/CollisionObject.hpp>
+#include <dart/collision/CollisionResult.hpp>
+#include <dart/collision/bullet/BulletCollisionDetector.hpp>
+#include <dart/constraint/ConstraintSolver.hpp>
+#include <dart/dynamics/FreeJoint.hpp>
+#include <dart/dynamics/ShapeFrame.hpp>
+#include <dart/dynamics/ShapeNode.hpp>
+#include <dart/simulation/World.hpp>
+
+#include "dart_skeleton_builder.hpp"
+#include "dynfilter/core/errors.hpp"
+#include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
+
+namespace dynfilter::dart_backend {
+namespace {
+
+using dart::dynamics::Frame;
+
+ModelInfo makeInfo(const urdf::RobotDescription& robot, bool floating_base) {
+  ModelInfo info;
+  info.name = robot.name;
+  info.floating_base = floating_base;
+  info.nj = static_cast<int>(robot.moving_joints.size());
+  info.nq = (floating_base ? kFloatingBaseNq : 0) + info.nj;
+  info.nv = (floating_base ? kFloatingBaseNv : 0) + info.nj;
+  info.q_lower.resize(info.nj);
+  info.q_upper.resize(info.nj);
+  info.v_max.resize(info.nj);
+  info.tau_max.resize(info.nj);
+  for (int c = 0; c < info.nj; ++c) {
+    const urdf::JointDesc& j = robot.joints[robot.moving_joints[c]];
+    info.joint_names.push_back(j.name);
+    info.q_lower[c] = j.lower;
+    info.q_upper[c] = j.upper;
+    info.v_max[c] = j.velocity_max;
+    info.tau_max[c] = j.effort_max;
+  }
+  for (const auto& link : robot.links) info.body_names.push_back(link.name);
+  info.total_mass = robot.totalMass();
+  return info;
+}
+
+class DartModel final : public IDynamicsModel {
+ public:
+  DartModel(const urdf::RobotDescription& robot, const ModelOptions& options)
+      : info_(makeInfo(robot, options.floating_base)),
+        environment_(options.environment),
+        robot_(buildRobotSkeleton(robot, options.floating_base)),
+        env_(buildEnvironmentSkeleton(options.environment)),
+        q_(info_.neutralConfiguration()),
+        v_(Eigen::VectorXd::Zero(info_.nv)),
+        dart_q_(robot_.skeleton->getNumDofs()),
+        dart_v_(robot_.skeleton->getNumDofs()),
+        dart_tau_(robot_.skeleton->getNumDofs()) {
+    robot_.skeleton->setGravity(options.gravity_W);
+    for (std::size_t k = 0; k < env_.skeleton->getNumBodyNodes(); ++k)
+      env_object_[env_.skeleton->getBodyNode(k)] = env_.object_of_body[k];
+
+    detector_ = dart::collision::BulletCollisionDetector::create();
+    robot_group_ = detector_->createCollisionGroup(robot_.skeleton.get());
+    env_group_ = detector_->createCollisionGroup(env_.skeleton.get());
+
+    world_ = dart::simulation::World::create("dynfilter");
+    world_->getConstraintSolver()->setCollisionDetector(
+        dart::collision::BulletCollisionDetector::create());
+    world_->setGravity(options.gravity_W);
+    world_->addSkeleton(robot_.skeleton);
+    world_->addSkeleton(env_.skeleton);
+    for (std::size_t i = 0; i < robot_.skeleton->getNumJoints(); ++i)
+      robot_.skeleton->getJoint(i)->setLimitEnforcement(options.enforce_joint_limits_in_simulation);
+    pushState();
+  }
+
+  const ModelInfo& info() const override { return info_; }
+  std::string_view backendName() const override { return "dart"; }
+  const Environment& environment() const override { return environment_; }
+
+  void setState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                const Eigen::Ref<const Eigen::VectorXd>& v) override {
+    info_.requireValidState(q, v);
+    q_ = q;
+    v_ = v;
+    if (info_.floating_base) q_.segment<4>(3).normalize();
+    pushState();
+  }
+  const Eigen::VectorXd& q() const override { return q_; }
+  const Eigen::VectorXd& v() const override { return v_; }
+
+  Eigen::Isometry3d bodyPose(int body) const override {
+    const LinkFrame& f = robot_.links[body];
+    return f.node->getWorldTransform() * f.X_NL;
+  }
+
+  Vector6d bodyVelocity(int body) const override {
+    const LinkFrame& f = robot_.links[body];
+    Vector6d V;
+    V.head<3>() = f.node->getLinearVelocity(f.X_NL.translation(), Frame::World(), Frame::World());
+    V.tail<3>() = f.node->getAngularVelocity(Frame::World(), Frame::World());
+    return V;
+  }
+
+  void pointJacobian(int body, const Eigen::Vector3d& p_BP,
+                     Eigen::Ref<Matrix6Xd> J_out) const override {
+    // DART rows are [angular; linear]; ours are [linear; angular].
+    const LinkFrame& f = robot_.links[body];
+    const auto J = robot_.skeleton->getWorldJacobian(f.node, f.X_NL * p_BP);
+    for (int i = 0; i < info_.nv; ++i) {
+      const int d = robot_.dof_of_v[i];
+      J_out.col(i).head<3>() = J.col(d).tail<3>();
+      J_out.col(i).tail<3>() = J.col(d).head<3>();
+    }
+  }
+
+  Vector6d pointJacobianDotTimesV(int body, const Eigen::Vector3d& p_BP) const override {
+    const LinkFrame& f = robot_.links[body];
+    const auto Jdot = robot_.skeleton->getJacobianClassicDeriv(f.node, f.X_NL * p_BP, Frame::World());
+    const Eigen::Matrix<double, 6, 1> a = Jdot * dart_v_;  // [angular; linear]
+    Vector6d out;
+    out.head<3>() = a.tail<3>();
+    out.tail<3>() = a.head<3>();
+    return out;
+  }
+
+  void massMatrix(Eigen::Ref<Eigen::MatrixXd> A_out) const override {
+    const Eigen::MatrixXd& M = robot_.skeleton->getMassMatrix();
+    for (int j = 0; j < info_.nv; ++j)
+      for (int i = 0; i < info_.nv; ++i) A_out(i, j) = M(robot_.dof_of_v[i], robot_.dof_of_v[j]);
+  }
+
+  void bias(Eigen::Ref<Eigen::VectorXd> b_out) const override {
+    const Eigen::VectorXd& h = robot_.skeleton->getCoriolisAndGravityForces();
+    for (int i = 0; i < info_.nv; ++i) b_out[i] = h[robot_.dof_of_v[i]];
+  }
+
+  void forwardDynamics(const Eigen::Ref<const Eigen::VectorXd>& tau_J,
+                       Eigen::Ref<Eigen::VectorXd> vdot_out) const override {
+    setJointForces(tau_J);
+    robot_.skeleton->computeForwardDynamics();
+    const Eigen::VectorXd& ddq = robot_.skeleton->getAccelerations();
+    for (int i = 0; i < info_.nv; ++i) vdot_out[i] = ddq[robot_.dof_of_v[i]];
+  }
+
+  void detectContacts(ContactList& out) const override {
+    out.clear();
+    collision_result_.clear();
+    dart::collision::CollisionOption option(true, out.capacity());
+    detector_->collide(robot_group_.get(), env_group_.get(), option, &collision_result_);
+    for (const auto& c : collision_result_.getContacts()) {
+      const auto* frame1 = c.collisionObject1->getShapeFrame();
+      const auto* frame2 = c.collisionObject2->getShapeFrame();
+      const auto* node1 = frame1->asShapeNode();
+      const auto* node2 = frame2->asShapeNode();
+      if (node1 == nullptr || node2 == nullptr) continue;
+      const bool robot_first = node1->getSkeleton() == robot_.skeleton;
+      const auto* robot_shape = robot_first ? node1 : node2;
+      const auto* env_body = (robot_first ? node2 : node1)->getBodyNodePtr().get();
+      ContactCandidate cand;
+      cand.body = robot_.link_of_shape.at(robot_shape);
+      cand.object = env_object_.at(env_body);
+      // DART's normal points from object 2 to object 1.
+      cand.n_W = (robot_first ? c.normal : -c.normal).normalized();
+      cand.depth_m = std::max(0.0, c.penetrationDepth);
+      cand.p_WC = c.point;
+      cand.p_BC = bodyPose(cand.body).inverse() * cand.p_WC;
+      out.push(cand);
+    }
+  }
+
+  void simulateStep(const Eigen::Ref<const Eigen::VectorXd>& tau_J, double dt_s) override {
+    if (!(dt_s > 0.0) || !std::isfinite(dt_s))
+      throw std::invalid_argument("simulateStep: dt must be positive and finite");
+    if (world_->getTimeStep() != dt_s) world_->setTimeStep(dt_s);
+    setJointForces(tau_J);
+    world_->step();
+    pullState();
+  }
+
+ private:
+  void setJointForces(const Eigen::Ref<const Eigen::VectorXd>& tau_J) const {
+    if (tau_J.size() != info_.nj)
+      throw InvalidStateError("torque vector has " + std::to_string(tau_J.size()) +
+                              " entries, expected nj = " + std::to_string(info_.nj));
+    dart_tau_.setZero();
+    const int base = info_.floating_base ? 6 : 0;
+    for (int j = 0; j < info_.nj; ++j) dart_tau_[robot_.dof_of_v[base + j]] = tau_J[j];
+    robot_.skeleton->setForces(dart_tau_);
+  }
+
+  // Our (q, v) → DART positions and velocities.
+  void pushState() {
+    int base_q = 0;
+    if (info_.floating_base) {
+      dart_q_.head<6>() = dart::dynamics::FreeJoint::convertToPositions(
+          basePoseFromConfiguration(q_));
+      base_q = 7;
+    }
+    const int base_v = info_.floating_base ? 6 : 0;
+    for (int j = 0; j < info_.nj; ++j) dart_q_[robot_.dof_of_v[base_v + j]] = q_[base_q + j];
+    for (int i = 0; i < info_.nv; ++i) dart_v_[robot_.dof_of_v[i]] = v_[i];
+    robot_.skeleton->setPositions(dart_q_);
+    robot_.skeleton->setVelocities(dart_v_);
+  }
+
+  // DART → our (q, v), after the engine advanced the state.
+  void pullState() {
+    dart_q_ = robot_.skeleton->getPositions();
+    dart_v_ = robot_.skeleton->getVelocities();
+    int base_q = 0;
+    if (info_.floating_base) {
+      setBasePoseInConfiguration(
+          dart::dynamics::FreeJoint::convertToTransform(dart_q_.head<6>()), q_);
+      base_q = 7;
+    }
+    const int base_v = info_.floating_base ? 6 : 0;
+    for (int j = 0; j < info_.nj; ++j) q_[base_q + j] = dart_q_[robot_.dof_of_v[base_v + j]];
+    for (int i = 0; i < info_.nv; ++i) v_[i] = dart_v_[robot_.dof_of_v[i]];
+  }
+
+  ModelInfo info_;
+  Environment environment_;
+  BuiltRobot robot_;
+  BuiltEnvironment env_;
+  std::unordered_map<const dart::dynamics::BodyNode*, int> env_object_;
+  std::shared_ptr<dart::collision::CollisionDetector> detector_;
+  std::unique_ptr<dart::collision::CollisionGroup> robot_group_;
+  std::unique_ptr<dart::collision::CollisionGroup> env_group_;
+  mutable dart::collision::CollisionResult collision_result_;
+  dart::simulation::WorldPtr world_;
+  Eigen::VectorXd q_, v_;
+  Eigen::VectorXd dart_q_, dart_v_;
+  mutable Eigen::VectorXd dart_tau_;
+};
+
+}  // namespace
+
+std::unique_ptr<IDynamicsModel> makeDartModel(const urdf::RobotDescription& robot,
+                                              const ModelOptions& options) {
+  urdf::validateForDynamics(robot, options.floating_base);
+  options.environment.validate();
+  if (!options.gravity_W.allFinite()) throw std::invalid_argument("gravity is not finite");
+  return std::make_unique<DartModel>(robot, options);
+}
+
+std::unique_ptr<IDynamicsModel> loadDartModel(const std::string& urdf_path,
+                                              const ModelOptions& options) {
+  return makeDartModel(urdf::loadUrdfFile(urdf_path), options);
+}
+
+}  // namespace dynfilter::dart_backend

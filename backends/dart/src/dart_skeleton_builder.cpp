@@ -1,0 +1,220 @@
+#include "dart_skeleton_builder.hpp"
+
+#include <dart/dynamics/BoxShape.hpp>
+#include <dart/dynamics/CylinderShape.hpp>
+#include <dart/dynamics/FreeJoint.hpp>
+#include <dart/dynamics/PrismaticJoint.hpp>
+#include <dart/dynamics/RevoluteJoint.hpp>
+#include <dart/dynamics/ShapeNode.hpp>
+#include <dart/dynamics/SphereShape.hpp>
+#include <dart/dynamics/WeldJoint.hpp>
+#include <dart/dynamics/Inertia.hpp>
+
+#include "dynfilter/core/contact.hpp"
+
+namespace dynfilter::dart_backend {
+namespace {
+
+using dart::dynamics::BodyNode;
+using dart::dynamics::ShapePtr;
+
+// Friction of the robot's own shapes. DART combines a pair by taking the smaller
+// coefficient, so the environment's friction is the one that applies.
+constexpr double kRobotShapeFriction = 1e3;
+// The ground slab: edge length and thickness (m).
+constexpr double kGroundSlabSize_m = 200.0;
+constexpr double kGroundSlabThickness_m = 2.0;
+
+template <typename JointT>
+typename JointT::Properties jointProperties(const urdf::JointDesc& j) {
+  typename JointT::Properties props;
+  props.mName = j.name;
+  props.mT_ParentBodyToJoint = j.X_PJ;
+  props.mT_ChildBodyToJoint = Eigen::Isometry3d::Identity();
+  return props;
+}
+
+template <typename JointT>
+void setSingleDofLimits(JointT* joint, const urdf::JointDesc& j) {
+  joint->setPositionLowerLimit(0, j.lower);
+  joint->setPositionUpperLimit(0, j.upper);
+  joint->setVelocityLowerLimit(0, -j.velocity_max);
+  joint->setVelocityUpperLimit(0, j.velocity_max);
+  joint->setForceLowerLimit(0, -j.effort_max);
+  joint->setForceUpperLimit(0, j.effort_max);
+}
+
+ShapePtr makeShape(const urdf::CollisionShapeDesc& s) {
+  switch (s.kind) {
+    case urdf::ShapeKind::kBox:
+      return std::make_shared<dart::dynamics::BoxShape>(s.box_size_m);
+    case urdf::ShapeKind::kSphere:
+      return std::make_shared<dart::dynamics::SphereShape>(s.radius_m);
+    case urdf::ShapeKind::kCylinder:
+      return std::make_shared<dart::dynamics::CylinderShape>(s.radius_m, s.length_m);
+  }
+  return nullptr;
+}
+
+dart::dynamics::ShapeNode* addCollisionShape(BodyNode* body, const ShapePtr& shape,
+                                             const Eigen::Isometry3d& X_BS, double friction) {
+  auto* node = body->createShapeNodeWith<dart::dynamics::CollisionAspect,
+                                         dart::dynamics::DynamicsAspect>(shape);
+  node->setRelativeTransform(X_BS);
+  node->getDynamicsAspect()->setFrictionCoeff(friction);
+  node->getDynamicsAspect()->setRestitutionCoeff(0.0);
+  return node;
+}
+
+// Sums rigidly attached mass properties in one body frame N.
+struct MassAccumulator {
+  double mass_kg = 0.0;
+  Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();  // Σ m c_N
+  Eigen::Matrix3d I_origin_N = Eigen::Matrix3d::Zero();    // about N's origin
+
+  void add(const urdf::InertialDesc& in, const Eigen::Isometry3d& X_NL) {
+    if (in.mass_kg <= 0.0) return;
+    const Eigen::Vector3d c_N = X_NL * in.p_LCom;
+    const Eigen::Matrix3d R = X_NL.linear();
+    mass_kg += in.mass_kg;
+    first_moment += in.mass_kg * c_N;
+    I_origin_N += R * in.I_Com_L * R.transpose() +
+                  in.mass_kg * (c_N.squaredNorm() * Eigen::Matrix3d::Identity() - c_N * c_N.transpose());
+  }
+  dart::dynamics::Inertia inertia() const {
+    const Eigen::Vector3d c = first_moment / mass_kg;
+    const Eigen::Matrix3d I_com =
+        I_origin_N - mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+    return dart::dynamics::Inertia(mass_kg, c, I_com);
+  }
+};
+
+}  // namespace
+
+BuiltRobot buildRobotSkeleton(const urdf::RobotDescription& robot, bool floating_base) {
+  BuiltRobot built;
+  built.skeleton = dart::dynamics::Skeleton::create(robot.name);
+  built.links.assign(robot.links.size(), LinkFrame{});
+  std::vector<MassAccumulator> lumped(robot.links.size());
+
+  for (const int link_index : robot.linksParentFirst()) {
+    const urdf::LinkDesc& link = robot.links[link_index];
+    LinkFrame& frame = built.links[link_index];
+    if (link.parent_joint >= 0 && !robot.joints[link.parent_joint].moving()) {
+      const urdf::JointDesc& j = robot.joints[link.parent_joint];
+      const LinkFrame& parent = built.links[j.parent_link];
+      frame.node = parent.node;
+      frame.X_NL = parent.X_NL * j.X_PJ;
+    } else {
+      BodyNode::Properties body_props;
+      body_props.mName = link.name;
+      if (link.parent_joint < 0) {
+        if (floating_base) {
+          dart::dynamics::FreeJoint::Properties props;
+          props.mName = "root_free_joint";
+          frame.node = built.skeleton->createJointAndBodyNodePair<dart::dynamics::FreeJoint>(
+                           nullptr, props, body_props).second;
+        } else {
+          dart::dynamics::WeldJoint::Properties props;
+          props.mName = "root_weld_joint";
+          frame.node = built.skeleton->createJointAndBodyNodePair<dart::dynamics::WeldJoint>(
+                           nullptr, props, body_props).second;
+        }
+      } else {
+        const urdf::JointDesc& j = robot.joints[link.parent_joint];
+        // The joint sits on the parent link's frame, which may be lumped into its carrier.
+        urdf::JointDesc on_carrier = j;
+        on_carrier.X_PJ = built.links[j.parent_link].X_NL * j.X_PJ;
+        BodyNode* parent = built.links[j.parent_link].node;
+        if (j.type == urdf::JointType::kPrismatic) {
+          auto props = jointProperties<dart::dynamics::PrismaticJoint>(on_carrier);
+          props.mAxis = j.axis_J;
+          auto pair = built.skeleton->createJointAndBodyNodePair<dart::dynamics::PrismaticJoint>(
+              parent, props, body_props);
+          setSingleDofLimits(pair.first, j);
+          frame.node = pair.second;
+        } else {  // revolute or continuous
+          auto props = jointProperties<dart::dynamics::RevoluteJoint>(on_carrier);
+          props.mAxis = j.axis_J;
+          auto pair = built.skeleton->createJointAndBodyNodePair<dart::dynamics::RevoluteJoint>(
+              parent, props, body_props);
+          setSingleDofLimits(pair.first, j);
+          frame.node = pair.second;
+        }
+      }
+    }
+    lumped[frame.node->getIndexInSkeleton()].add(link.inertial, frame.X_NL);
+    for (const auto& shape : link.collisions) {
+      auto* node = addCollisionShape(frame.node, makeShape(shape), frame.X_NL * shape.X_LS,
+                                     kRobotShapeFriction);
+      built.link_of_shape[node] = link_index;
+    }
+  }
+  for (std::size_t k = 0; k < built.skeleton->getNumBodyNodes(); ++k) {
+    BodyNode* node = built.skeleton->getBodyNode(k);
+    // A massless body can only be a root welded to the world (validateForDynamics
+    // guarantees mass on every moving link); its inertia then never enters the dynamics.
+    node->setInertia(lumped[k].mass_kg > 0.0
+                         ? lumped[k].inertia()
+                         : dart::dynamics::Inertia(1.0, Eigen::Vector3d::Zero(),
+                                                   Eigen::Matrix3d::Identity()));
+  }
+
+  const int nj = static_cast<int>(robot.moving_joints.size());
+  const int base = floating_base ? 6 : 0;
+  built.dof_of_v.assign(base + nj, -1);
+  if (floating_base) {
+    // Our base velocity is [v_B; ω_B]; DART's FreeJoint uses [ω_B; v_B], both in B.
+    for (int i = 0; i < 3; ++i) {
+      built.dof_of_v[i] = 3 + i;
+      built.dof_of_v[3 + i] = i;
+    }
+  }
+  for (int c = 0; c < nj; ++c) {
+    const urdf::JointDesc& j = robot.joints[robot.moving_joints[c]];
+    built.dof_of_v[base + c] = static_cast<int>(
+        built.links[j.child_link].node->getParentJoint()->getIndexInSkeleton(0));
+  }
+  return built;
+}
+
+BuiltEnvironment buildEnvironmentSkeleton(const Environment& environment) {
+  BuiltEnvironment built;
+  built.skeleton = dart::dynamics::Skeleton::create("environment");
+  built.skeleton->setMobile(false);
+  auto addStaticBody = [&](const std::string& name, const Eigen::Isometry3d& X_WO, int object) {
+    dart::dynamics::WeldJoint::Properties props;
+    props.mName = name + "_weld";
+    props.mT_ParentBodyToJoint = X_WO;
+    BodyNode::Properties body_props;
+    body_props.mName = name;
+    BodyNode* body = built.skeleton->createJointAndBodyNodePair<dart::dynamics::WeldJoint>(
+                         nullptr, props, body_props).second;
+    built.object_of_body.push_back(object);
+    return body;
+  };
+  if (environment.has_ground) {
+    // Bullet's plane-vs-convex test reports one point per pair, which cannot hold a flat
+    // sole; box-vs-box reports the full contact polygon (up to 4 points). So the ground
+    // is a slab whose top face is the plane, far larger than any scene.
+    const GroundPlane& g = environment.ground;
+    Eigen::Isometry3d X_WG = Eigen::Isometry3d::Identity();
+    X_WG.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), g.n_W)
+                        .toRotationMatrix();
+    X_WG.translation() = g.n_W * (g.offset_m - 0.5 * kGroundSlabThickness_m);
+    BodyNode* ground = addStaticBody("ground", X_WG, kGroundObject);
+    addCollisionShape(ground,
+                      std::make_shared<dart::dynamics::BoxShape>(Eigen::Vector3d(
+                          kGroundSlabSize_m, kGroundSlabSize_m, kGroundSlabThickness_m)),
+                      Eigen::Isometry3d::Identity(), g.friction);
+  }
+  for (std::size_t i = 0; i < environment.boxes.size(); ++i) {
+    const EnvironmentBox& box = environment.boxes[i];
+    BodyNode* body = addStaticBody("box_" + std::to_string(i), box.X_WO, static_cast<int>(i));
+    addCollisionShape(body, std::make_shared<dart::dynamics::BoxShape>(box.size_m),
+                      Eigen::Isometry3d::Identity(), box.friction);
+  }
+  return built;
+}
+
+}  // namespace dynfilter::dart_backend

@@ -1,0 +1,324 @@
+#include "dynfilter/urdf/urdf_loader.hpp"
+
+#include <tinyxml2.h>
+#include <urdf_parser/urdf_parser.h>
+
+#include <console_bridge/console.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "dynfilter/core/errors.hpp"
+
+namespace dynfilter::urdf {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// urdfdom reports problems through console_bridge; keep the first error for our message.
+class CapturingOutputHandler : public console_bridge::OutputHandler {
+ public:
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR && first_error.empty())
+      first_error = text;
+  }
+  std::string first_error;
+};
+
+class ScopedCapture {
+ public:
+  explicit ScopedCapture(CapturingOutputHandler* handler) {
+    console_bridge::useOutputHandler(handler);
+  }
+  ~ScopedCapture() { console_bridge::restorePreviousOutputHandler(); }
+  ScopedCapture(const ScopedCapture&) = delete;
+  ScopedCapture& operator=(const ScopedCapture&) = delete;
+};
+
+std::string quoted(const char* s) { return std::string("\"") + (s ? s : "") + "\""; }
+
+// What the structural pass learns about the document: names in file order and their lines.
+struct DocumentIndex {
+  std::string robot_name;
+  std::vector<std::string> link_names;
+  std::vector<int> link_lines;
+  std::vector<std::string> joint_names;
+  std::vector<int> joint_lines;
+  std::vector<std::string> warnings;
+};
+
+// Elements the URDF format (and common extensions) allow; anything else is an error,
+// because a misspelt element would otherwise be silently ignored.
+const std::set<std::string> kRobotChildren{"link", "joint", "material", "gazebo",
+                                           "transmission", "ros2_control"};
+const std::set<std::string> kLinkChildren{"inertial", "visual", "collision"};
+const std::set<std::string> kJointChildren{"origin", "parent", "child", "axis", "limit",
+                                           "dynamics", "calibration", "mimic",
+                                           "safety_controller"};
+const std::set<std::string> kSupportedJointTypes{"revolute", "continuous", "prismatic", "fixed"};
+const std::set<std::string> kKnownUnsupportedJointTypes{"floating", "planar"};
+
+DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) {
+    const char* detail = doc.ErrorStr();
+    throw ModelError(source, doc.ErrorLineNum(), "XML",
+                     std::string("malformed XML: ") + (detail ? detail : doc.ErrorName()));
+  }
+  const tinyxml2::XMLElement* robot = doc.RootElement();
+  if (robot == nullptr || std::strcmp(robot->Name(), "robot") != 0) {
+    throw ModelError(source, robot ? robot->GetLineNum() : 1,
+                     robot ? "<" + std::string(robot->Name()) + ">" : "document",
+                     "the root element must be <robot>");
+  }
+  DocumentIndex index;
+  index.robot_name = robot->Attribute("name") ? robot->Attribute("name") : "";
+  std::map<std::string, int> link_line;
+  std::map<std::string, int> joint_line;
+
+  auto requireName = [&](const tinyxml2::XMLElement* e) -> std::string {
+    const char* name = e->Attribute("name");
+    if (name == nullptr || *name == '\0')
+      throw ModelError(source, e->GetLineNum(), "<" + std::string(e->Name()) + ">",
+                       "missing the name attribute");
+    return name;
+  };
+  auto checkChildren = [&](const tinyxml2::XMLElement* e, const std::set<std::string>& allowed,
+                           const std::string& label) {
+    for (auto* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+      if (!allowed.count(c->Name()))
+        throw ModelError(source, c->GetLineNum(), label,
+                         "unknown element <" + std::string(c->Name()) + ">");
+    }
+  };
+
+  for (auto* e = robot->FirstChildElement(); e; e = e->NextSiblingElement()) {
+    const std::string tag = e->Name();
+    if (!kRobotChildren.count(tag))
+      throw ModelError(source, e->GetLineNum(), "<robot>", "unknown element <" + tag + ">");
+    if (tag == "link") {
+      const std::string name = requireName(e);
+      const std::string label = "link " + quoted(name.c_str());
+      if (link_line.count(name))
+        throw ModelError(source, e->GetLineNum(), label,
+                         "duplicate link name (first defined on line " +
+                             std::to_string(link_line[name]) + ")");
+      checkChildren(e, kLinkChildren, label);
+      for (auto* c = e->FirstChildElement("collision"); c; c = c->NextSiblingElement("collision")) {
+        const auto* geometry = c->FirstChildElement("geometry");
+        const auto* shape = geometry ? geometry->FirstChildElement() : nullptr;
+        if (shape == nullptr)
+          throw ModelError(source, c->GetLineNum(), label, "<collision> without a geometry");
+        if (std::strcmp(shape->Name(), "mesh") == 0)
+          index.warnings.push_back(source + ":" + std::to_string(shape->GetLineNum()) + ": " +
+                                   label + ": mesh collision geometry is not supported; "
+                                   "the shape is ignored for collision");
+      }
+      link_line[name] = e->GetLineNum();
+      index.link_names.push_back(name);
+      index.link_lines.push_back(e->GetLineNum());
+    } else if (tag == "joint") {
+      const std::string name = requireName(e);
+      const std::string label = "joint " + quoted(name.c_str());
+      if (joint_line.count(name))
+        throw ModelError(source, e->GetLineNum(), label,
+                         "duplicate joint name (first defined on line " +
+                             std::to_string(joint_line[name]) + ")");
+      checkChildren(e, kJointChildren, label);
+      const char* type = e->Attribute("type");
+      if (type == nullptr)
+        throw ModelError(source, e->GetLineNum(), label, "missing the type attribute");
+      if (kKnownUnsupportedJointTypes.count(type))
+        throw ModelError(source, e->GetLineNum(), label,
+                         "unsupported joint type " + quoted(type) +
+                             " (supported: revolute, continuous, prismatic, fixed)");
+      if (!kSupportedJointTypes.count(type))
+        throw ModelError(source, e->GetLineNum(), label,
+                         "unknown joint type " + quoted(type) +
+                             " (supported: revolute, continuous, prismatic, fixed)");
+      if (e->FirstChildElement("mimic"))
+        throw ModelError(source, e->FirstChildElement("mimic")->GetLineNum(), label,
+                         "mimic joints are not supported");
+      joint_line[name] = e->GetLineNum();
+      index.joint_names.push_back(name);
+      index.joint_lines.push_back(e->GetLineNum());
+    }
+  }
+  // Dangling references are reported here, with the line, before urdfdom sees them.
+  for (auto* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
+    const std::string label = "joint " + quoted(e->Attribute("name"));
+    for (const char* role : {"parent", "child"}) {
+      const auto* ref = e->FirstChildElement(role);
+      const char* link = ref ? ref->Attribute("link") : nullptr;
+      if (link == nullptr)
+        throw ModelError(source, e->GetLineNum(), label,
+                         std::string("missing <") + role + " link=\"...\"/>");
+      if (!link_line.count(link))
+        throw ModelError(source, ref->GetLineNum(), label,
+                         std::string(role) + " link " + quoted(link) + " is not defined");
+    }
+  }
+  if (index.link_names.empty())
+    throw ModelError(source, robot->GetLineNum(), "<robot>", "no <link> elements");
+  return index;
+}
+
+Eigen::Isometry3d toIsometry(const ::urdf::Pose& pose) {
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.translation() = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z);
+  X.linear() = Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y,
+                                  pose.rotation.z).normalized().toRotationMatrix();
+  return X;
+}
+
+RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentIndex index,
+                                  const std::string& source) {
+  RobotDescription robot;
+  robot.name = model.getName();
+  robot.source = source;
+  robot.warnings = std::move(index.warnings);
+
+  std::map<std::string, int> link_index;
+  for (std::size_t i = 0; i < index.link_names.size(); ++i) {
+    const auto link = model.getLink(index.link_names[i]);
+    LinkDesc desc;
+    desc.name = index.link_names[i];
+    desc.line = index.link_lines[i];
+    if (link->inertial) {
+      const ::urdf::Inertial& in = *link->inertial;
+      desc.inertial.present = true;
+      desc.inertial.mass_kg = in.mass;
+      const Eigen::Isometry3d X_LI = toIsometry(in.origin);
+      desc.inertial.p_LCom = X_LI.translation();
+      Eigen::Matrix3d I_I;
+      I_I << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+      desc.inertial.I_Com_L = X_LI.linear() * I_I * X_LI.linear().transpose();
+    }
+    for (const auto& collision : link->collision_array) {
+      if (!collision || !collision->geometry) continue;
+      CollisionShapeDesc shape;
+      shape.X_LS = toIsometry(collision->origin);
+      switch (collision->geometry->type) {
+        case ::urdf::Geometry::BOX: {
+          const auto& box = static_cast<const ::urdf::Box&>(*collision->geometry);
+          shape.kind = ShapeKind::kBox;
+          shape.box_size_m = Eigen::Vector3d(box.dim.x, box.dim.y, box.dim.z);
+          break;
+        }
+        case ::urdf::Geometry::SPHERE:
+          shape.kind = ShapeKind::kSphere;
+          shape.radius_m = static_cast<const ::urdf::Sphere&>(*collision->geometry).radius;
+          break;
+        case ::urdf::Geometry::CYLINDER: {
+          const auto& cyl = static_cast<const ::urdf::Cylinder&>(*collision->geometry);
+          shape.kind = ShapeKind::kCylinder;
+          shape.radius_m = cyl.radius;
+          shape.length_m = cyl.length;
+          break;
+        }
+        default:
+          continue;  // meshes: warned about in indexDocument
+      }
+      desc.collisions.push_back(shape);
+    }
+    link_index[desc.name] = static_cast<int>(i);
+    robot.links.push_back(std::move(desc));
+  }
+
+  for (std::size_t i = 0; i < index.joint_names.size(); ++i) {
+    const auto joint = model.getJoint(index.joint_names[i]);
+    JointDesc desc;
+    desc.name = index.joint_names[i];
+    desc.line = index.joint_lines[i];
+    desc.parent_link = link_index.at(joint->parent_link_name);
+    desc.child_link = link_index.at(joint->child_link_name);
+    desc.X_PJ = toIsometry(joint->parent_to_joint_origin_transform);
+    const std::string label = "joint " + quoted(desc.name.c_str());
+    switch (joint->type) {
+      case ::urdf::Joint::REVOLUTE: desc.type = JointType::kRevolute; break;
+      case ::urdf::Joint::CONTINUOUS: desc.type = JointType::kContinuous; break;
+      case ::urdf::Joint::PRISMATIC: desc.type = JointType::kPrismatic; break;
+      case ::urdf::Joint::FIXED: desc.type = JointType::kFixed; break;
+      default:
+        throw ModelError(source, desc.line, label, "unsupported joint type");
+    }
+    if (desc.moving()) {
+      const Eigen::Vector3d axis(joint->axis.x, joint->axis.y, joint->axis.z);
+      if (!axis.allFinite() || axis.norm() < 1e-9)
+        throw ModelError(source, desc.line, label, "the joint axis is zero or not finite");
+      desc.axis_J = axis.normalized();
+      desc.lower = -kInf;
+      desc.upper = kInf;
+      desc.velocity_max = kInf;
+      desc.effort_max = kInf;
+      if (joint->limits) {
+        const auto& lim = *joint->limits;
+        if (desc.type != JointType::kContinuous) {
+          desc.lower = lim.lower;
+          desc.upper = lim.upper;
+        }
+        if (lim.velocity > 0.0) desc.velocity_max = lim.velocity;
+        if (lim.effort > 0.0) desc.effort_max = lim.effort;
+        if (lim.velocity < 0.0 || lim.effort < 0.0 || !std::isfinite(lim.velocity) ||
+            !std::isfinite(lim.effort))
+          throw ModelError(source, desc.line, label,
+                           "<limit> velocity and effort must be finite and >= 0");
+        if (lim.effort == 0.0 || lim.velocity == 0.0)
+          robot.warnings.push_back(source + ":" + std::to_string(desc.line) + ": " + label +
+                                   ": <limit> effort or velocity is 0; treated as unlimited");
+      }
+      if (desc.type != JointType::kContinuous &&
+          !(std::isfinite(desc.lower) && std::isfinite(desc.upper) && desc.lower <= desc.upper))
+        throw ModelError(source, desc.line, label,
+                         "position limits must be finite with lower <= upper (lower " +
+                             std::to_string(desc.lower) + ", upper " +
+                             std::to_string(desc.upper) + ")");
+      desc.coordinate = static_cast<int>(robot.moving_joints.size());
+      robot.moving_joints.push_back(static_cast<int>(i));
+    }
+    robot.joints.push_back(std::move(desc));
+  }
+
+  for (std::size_t j = 0; j < robot.joints.size(); ++j) {
+    LinkDesc& child = robot.links[robot.joints[j].child_link];
+    child.parent_joint = static_cast<int>(j);
+    robot.links[robot.joints[j].parent_link].child_joints.push_back(static_cast<int>(j));
+  }
+  robot.root_link = link_index.at(model.getRoot()->name);
+  return robot;
+}
+
+}  // namespace
+
+RobotDescription loadUrdfString(const std::string& xml, const std::string& source_label) {
+  DocumentIndex index = indexDocument(xml, source_label);
+  CapturingOutputHandler handler;
+  ::urdf::ModelInterfaceSharedPtr model;
+  {
+    ScopedCapture capture(&handler);
+    model = ::urdf::parseURDF(xml);
+  }
+  if (!model) {
+    throw ModelError(source_label, 0, "<robot>",
+                     handler.first_error.empty() ? "urdfdom could not parse the model"
+                                                 : "urdfdom: " + handler.first_error);
+  }
+  return buildDescription(*model, std::move(index), source_label);
+}
+
+RobotDescription loadUrdfFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ModelError(path, 0, "file", std::string("cannot open: ") + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw ModelError(path, 0, "file", "read error");
+  return loadUrdfString(text.str(), path);
+}
+
+}  // namespace dynfilter::urdf
