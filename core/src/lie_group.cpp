@@ -5,8 +5,9 @@
 namespace dynfilter {
 namespace {
 
-// Below this angle the closed forms lose digits; Taylor series take over.
-constexpr double kSmallAngle = 1e-4;
+// Below this angle the ratios of sines and cosines lose digits to cancellation; their
+// Taylor series (truncation error below 1e-17 here) take over.
+constexpr double kSeriesAngle = 1e-2;
 
 // Left Jacobian of SO(3): V(ω) with p = V(ω) v in expSE3.
 Eigen::Matrix3d leftJacobianSO3(const Eigen::Vector3d& omega) {
@@ -14,11 +15,12 @@ Eigen::Matrix3d leftJacobianSO3(const Eigen::Vector3d& omega) {
   const double theta = std::sqrt(theta2);
   const Eigen::Matrix3d K = skew(omega);
   double a, b;  // V = I + a K + b K²
-  if (theta < kSmallAngle) {
-    a = 0.5 - theta2 / 24.0;
-    b = 1.0 / 6.0 - theta2 / 120.0;
+  if (theta < kSeriesAngle) {
+    a = 0.5 - theta2 / 24.0 + theta2 * theta2 / 720.0;
+    b = 1.0 / 6.0 - theta2 / 120.0 + theta2 * theta2 / 5040.0;
   } else {
-    a = (1.0 - std::cos(theta)) / theta2;
+    const double s = std::sin(0.5 * theta);
+    a = 2.0 * s * s / theta2;  // (1 − cos θ) / θ² without cancellation
     b = (theta - std::sin(theta)) / (theta2 * theta);
   }
   return Eigen::Matrix3d::Identity() + a * K + b * K * K;
@@ -29,10 +31,11 @@ Eigen::Matrix3d leftJacobianInverseSO3(const Eigen::Vector3d& omega) {
   const double theta = std::sqrt(theta2);
   const Eigen::Matrix3d K = skew(omega);
   double c;  // V⁻¹ = I − K/2 + c K²
-  if (theta < kSmallAngle) {
-    c = 1.0 / 12.0 + theta2 / 720.0;
+  if (theta < kSeriesAngle) {
+    c = 1.0 / 12.0 + theta2 / 720.0 + theta2 * theta2 / 30240.0;
   } else {
-    c = (1.0 - theta * std::sin(theta) / (2.0 * (1.0 - std::cos(theta)))) / theta2;
+    const double half = 0.5 * theta;
+    c = (1.0 - half * std::cos(half) / std::sin(half)) / theta2;
   }
   return Eigen::Matrix3d::Identity() - 0.5 * K + c * K * K;
 }
@@ -46,12 +49,21 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
 }
 
 Eigen::Matrix3d expSO3(const Eigen::Vector3d& omega) {
-  const double theta = omega.norm();
-  if (theta < kSmallAngle) {
-    const Eigen::Matrix3d K = skew(omega);
-    return Eigen::Matrix3d::Identity() + K + 0.5 * K * K;
+  // Rodrigues: R = I + (sin θ / θ) K + ((1 − cos θ) / θ²) K², both ratios evaluated
+  // without cancellation.
+  const double theta2 = omega.squaredNorm();
+  const double theta = std::sqrt(theta2);
+  const Eigen::Matrix3d K = skew(omega);
+  double a, b;
+  if (theta < kSeriesAngle) {
+    a = 1.0 - theta2 / 6.0 + theta2 * theta2 / 120.0;
+    b = 0.5 - theta2 / 24.0 + theta2 * theta2 / 720.0;
+  } else {
+    const double s = std::sin(0.5 * theta);
+    a = std::sin(theta) / theta;
+    b = 2.0 * s * s / theta2;
   }
-  return Eigen::AngleAxisd(theta, omega / theta).toRotationMatrix();
+  return Eigen::Matrix3d::Identity() + a * K + b * K * K;
 }
 
 Eigen::Vector3d logSO3(const Eigen::Matrix3d& R) {

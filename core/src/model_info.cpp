@@ -2,12 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <string>
 
 #include "dynfilter/core/errors.hpp"
 
 namespace dynfilter {
 namespace {
+std::string formatNumber(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
+}
+
 int findName(const std::vector<std::string>& names, std::string_view name) {
   const auto it = std::find(names.begin(), names.end(), name);
   return it == names.end() ? -1 : static_cast<int>(it - names.begin());
@@ -58,9 +65,8 @@ void ModelInfo::requireValidState(const Eigen::Ref<const Eigen::VectorXd>& q,
            ", expected nv = " + std::to_string(nv) + ")";
   } else if (floating_base && !check.in_velocity && check.index == 3 &&
              std::string(check.reason).find("quaternion") != std::string::npos) {
-    msg += std::string(check.reason) + " (norm " +
-           std::to_string(q.segment<4>(3).norm()) + ", tolerance " +
-           std::to_string(kUnitQuaternionTolerance) + ")";
+    msg += std::string(check.reason) + " (norm " + formatNumber(q.segment<4>(3).norm()) +
+           ", tolerance " + formatNumber(kUnitQuaternionTolerance) + ")";
   } else {
     msg += std::string(check.in_velocity ? "v[" : "q[") + std::to_string(check.index) +
            "] is " + check.reason;

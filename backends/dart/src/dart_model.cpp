@@ -152,7 +152,8 @@ class DartModel final : public IDynamicsModel {
   void detectContacts(ContactList& out) const override {
     out.clear();
     collision_result_.clear();
-    dart::collision::CollisionOption option(true, out.capacity());
+    // One more than fits, so that truncation shows up as an overflow.
+    dart::collision::CollisionOption option(true, out.capacity() + 1);
     detector_->collide(robot_group_.get(), env_group_.get(), option, &collision_result_);
     for (const auto& c : collision_result_.getContacts()) {
       const auto* frame1 = c.collisionObject1->getShapeFrame();

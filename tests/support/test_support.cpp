@@ -1,0 +1,103 @@
+#include "support/test_support.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/dart/dart_model.hpp"
+
+namespace dynfilter::test {
+
+std::string sourcePath(const std::string& relative) {
+  return std::string(DYNFILTER_SOURCE_DIR) + "/" + relative;
+}
+std::string testModelPath(const std::string& name) { return sourcePath("tests/models/" + name); }
+std::string humanFigurePath() { return sourcePath("models/human_figure.urdf"); }
+
+std::vector<std::string> allBackends() { return {"dart"}; }
+
+std::unique_ptr<IDynamicsModel> makeModel(const std::string& backend,
+                                          const urdf::RobotDescription& robot,
+                                          const ModelOptions& options) {
+  if (backend == "dart") return dart_backend::makeDartModel(robot, options);
+  throw std::invalid_argument("unknown backend " + backend);
+}
+
+void randomState(const IDynamicsModel& model, std::mt19937& rng, double velocity_scale,
+                 Eigen::VectorXd& q, Eigen::VectorXd& v) {
+  const ModelInfo& info = model.info();
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  q.resize(info.nq);
+  v.resize(info.nv);
+  if (info.floating_base) {
+    q.head<3>() = Eigen::Vector3d(unit(rng), unit(rng), 1.0 + unit(rng));
+    Eigen::Vector4d quat(unit(rng), unit(rng), unit(rng), unit(rng));
+    q.segment<4>(3) = quat.normalized();
+  }
+  for (int j = 0; j < info.nj; ++j) {
+    const double lo = std::isfinite(info.q_lower[j]) ? info.q_lower[j] : -M_PI;
+    const double hi = std::isfinite(info.q_upper[j]) ? info.q_upper[j] : M_PI;
+    q[info.configurationIndex(j)] = lo + (hi - lo) * 0.5 * (1.0 + unit(rng));
+  }
+  for (int i = 0; i < info.nv; ++i) v[i] = velocity_scale * unit(rng);
+}
+
+std::vector<LinkMass> linkMasses(const urdf::RobotDescription& robot) {
+  std::vector<LinkMass> out;
+  for (const auto& link : robot.links)
+    out.push_back({link.inertial.mass_kg, link.inertial.p_LCom, link.inertial.I_Com_L});
+  return out;
+}
+
+void newtonEulerReference(const IDynamicsModel& model, const std::vector<LinkMass>& masses,
+                          const Eigen::Vector3d& gravity_W, Eigen::MatrixXd& A,
+                          Eigen::VectorXd& b) {
+  const int nv = model.nv();
+  A.setZero(nv, nv);
+  b.setZero(nv);
+  Matrix6Xd J(6, nv);
+  for (std::size_t k = 0; k < masses.size(); ++k) {
+    const LinkMass& mk = masses[k];
+    if (mk.mass_kg <= 0.0) continue;
+    const int body = static_cast<int>(k);
+    model.pointJacobian(body, mk.p_LCom, J);
+    const Vector6d drift = model.pointJacobianDotTimesV(body, mk.p_LCom);
+    const Eigen::Matrix3d R = model.bodyPose(body).linear();
+    const Eigen::Matrix3d I_W = R * mk.I_Com_L * R.transpose();
+    const Eigen::Vector3d omega = model.bodyVelocity(body).tail<3>();
+    Matrix6d M = Matrix6d::Zero();
+    M.topLeftCorner<3, 3>() = mk.mass_kg * Eigen::Matrix3d::Identity();
+    M.bottomRightCorner<3, 3>() = I_W;
+    A += J.transpose() * M * J;
+    Vector6d wrench;
+    wrench.head<3>() = mk.mass_kg * (drift.head<3>() - gravity_W);
+    wrench.tail<3>() = I_W * drift.tail<3>() + omega.cross(I_W * omega);
+    b += J.transpose() * wrench;
+  }
+}
+
+void momentum(const IDynamicsModel& model, const std::vector<LinkMass>& masses,
+              Eigen::Vector3d& linear, Eigen::Vector3d& angular) {
+  linear.setZero();
+  angular.setZero();
+  Matrix6Xd J(6, model.nv());
+  for (std::size_t k = 0; k < masses.size(); ++k) {
+    const LinkMass& mk = masses[k];
+    if (mk.mass_kg <= 0.0) continue;
+    const int body = static_cast<int>(k);
+    model.pointJacobian(body, mk.p_LCom, J);
+    const Vector6d V = J * model.v();
+    const Eigen::Isometry3d X = model.bodyPose(body);
+    const Eigen::Matrix3d I_W = X.linear() * mk.I_Com_L * X.linear().transpose();
+    const Eigen::Vector3d c = X * mk.p_LCom;
+    linear += mk.mass_kg * V.head<3>();
+    angular += c.cross(mk.mass_kg * V.head<3>()) + I_W * V.tail<3>();
+  }
+}
+
+double relativeError(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  const double scale = std::max(1.0, b.cwiseAbs().maxCoeff());
+  return (a - b).cwiseAbs().maxCoeff() / scale;
+}
+
+}  // namespace dynfilter::test
