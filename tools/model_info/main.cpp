@@ -1,1 +1,145 @@
-int main(){}
+// dynfilter-model-info: loads a URDF through a backend, prints what the model is (sizes,
+// joints, limits, mass), where it touches the ground when standing, and how it behaves in
+// the engine's own simulator when its joints hold their posture.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "dynfilter/core/errors.hpp"
+#include "dynfilter/dart/dart_model.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
+
+namespace {
+
+using dynfilter::ContactList;
+using dynfilter::IDynamicsModel;
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+void printJoints(const dynfilter::ModelInfo& info) {
+  std::printf("\n%-20s %9s %9s %9s %9s\n", "joint", "lower°", "upper°", "|τ|max", "|q̇|max");
+  for (int j = 0; j < info.nj; ++j)
+    std::printf("%-20s %9.1f %9.1f %9.1f %9.1f\n", info.joint_names[j].c_str(),
+                info.q_lower[j] * kRadToDeg, info.q_upper[j] * kRadToDeg, info.tau_max[j],
+                info.v_max[j]);
+}
+
+// Lowest world z of any contact-capable point is found by lowering the model until the
+// collision engine reports contact: the height at which the model stands on level ground.
+double standingBaseHeight(IDynamicsModel& model) {
+  Eigen::VectorXd q = model.info().neutralConfiguration();
+  const Eigen::VectorXd v = Eigen::VectorXd::Zero(model.nv());
+  ContactList contacts;
+  double lo = 0.0, hi = 3.0;
+  for (int it = 0; it < 40; ++it) {
+    q[2] = 0.5 * (lo + hi);
+    model.setState(q, v);
+    model.detectContacts(contacts);
+    (contacts.empty() ? hi : lo) = q[2];
+  }
+  return hi;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Load a URDF model through a dynfilter backend and describe it."};
+  std::string urdf_path = DYNFILTER_DEFAULT_MODEL;
+  bool fixed_base = false;
+  double seconds = 2.0;
+  double dt = 1e-3;
+  double kp = 2000.0, kd = 40.0;
+  bool list_joints = false;
+  app.add_option("urdf", urdf_path, "URDF file (default: the human figure)");
+  app.add_flag("--fixed-base", fixed_base, "weld the root link to the world");
+  app.add_flag("--joints", list_joints, "print every joint with its limits");
+  app.add_option("--seconds", seconds, "simulated standing time (s)")->check(CLI::NonNegativeNumber);
+  app.add_option("--dt", dt, "simulation step (s)")->check(CLI::PositiveNumber);
+  app.add_option("--kp", kp, "posture stiffness (N m / rad)");
+  app.add_option("--kd", kd, "posture damping (N m s / rad)");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    const auto robot = dynfilter::urdf::loadUrdfFile(urdf_path);
+    for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    dynfilter::ModelOptions options;
+    options.floating_base = !fixed_base;
+    auto model = dynfilter::dart_backend::makeDartModel(robot, options);
+    const auto& info = model->info();
+    std::printf("model %s (%s backend) from %s\n", info.name.c_str(),
+                std::string(model->backendName()).c_str(), urdf_path.c_str());
+    std::printf("  bodies %zu, actuated joints N_J = %d, nq = %d, nv = N_G = %d, %s base\n",
+                info.body_names.size(), info.nj, info.nq, info.nv,
+                info.floating_base ? "floating" : "fixed");
+    std::printf("  total mass %.3f kg\n", info.total_mass);
+    if (list_joints) printJoints(info);
+
+    // Timing of the dynamics terms at one state (a benchmark lives in tests/bench).
+    Eigen::MatrixXd A(info.nv, info.nv);
+    Eigen::VectorXd b(info.nv);
+    model->setState(info.neutralConfiguration(), Eigen::VectorXd::Zero(info.nv));
+    const auto t0 = std::chrono::steady_clock::now();
+    model->massMatrix(A);
+    model->bias(b);
+    const auto t1 = std::chrono::steady_clock::now();
+    std::printf("  A and b at the neutral pose in %.0f µs (first call, uncached)\n",
+                std::chrono::duration<double, std::micro>(t1 - t0).count());
+
+    if (!info.floating_base) return 0;
+    const double z0 = standingBaseHeight(*model);
+    Eigen::VectorXd q = info.neutralConfiguration();
+    q[2] = z0 - 1e-4;  // 0.1 mm into the floor: the collision engine reports the soles
+    model->setState(q, Eigen::VectorXd::Zero(info.nv));
+    ContactList contacts;
+    model->detectContacts(contacts);
+    std::printf("\nstanding on level ground: base height %.4f m, %zu contact points\n", z0,
+                contacts.size());
+    for (const auto& c : contacts)
+      std::printf("  %-10s p_W = (%+.3f, %+.3f, %+.4f) m  n_W = (%+.2f, %+.2f, %+.2f)\n",
+                  info.body_names[c.body].c_str(), c.p_WC.x(), c.p_WC.y(), c.p_WC.z(),
+                  c.n_W.x(), c.n_W.y(), c.n_W.z());
+
+    if (seconds <= 0.0) return 0;
+    // Hold the zero posture with joint PD (torques clamped to the URDF limits) while the
+    // engine's own simulator integrates the whole body with ground contact.
+    const Eigen::VectorXd q_ref = q.tail(info.nj);
+    Eigen::VectorXd tau(info.nj);
+    double peak_tau_ratio = 0.0;
+    int peak_joint = 0;
+    const int steps = static_cast<int>(std::lround(seconds / dt));
+    for (int k = 0; k < steps; ++k) {
+      const auto qj = model->q().tail(info.nj);
+      const auto vj = model->v().tail(info.nj);
+      for (int j = 0; j < info.nj; ++j) {
+        const double raw = kp * (q_ref[j] - qj[j]) - kd * vj[j];
+        tau[j] = std::clamp(raw, -info.tau_max[j], info.tau_max[j]);
+        if (std::abs(tau[j]) / info.tau_max[j] > peak_tau_ratio) {
+          peak_tau_ratio = std::abs(tau[j]) / info.tau_max[j];
+          peak_joint = j;
+        }
+      }
+      model->simulateStep(tau, dt);
+    }
+    model->detectContacts(contacts);
+    const Eigen::Vector3d base = model->q().head<3>();
+    std::printf("\nafter %.2f s standing under joint PD (kp %.0f, kd %.0f) in the engine:\n",
+                seconds, kp, kd);
+    std::printf("  base at (%+.4f, %+.4f, %.4f) m (drop %.1f mm), %zu contact points\n", base.x(),
+                base.y(), base.z(), (z0 - base.z()) * 1e3, contacts.size());
+    std::printf("  largest torque used: %.0f %% of its limit (%s)\n", 100.0 * peak_tau_ratio,
+                info.joint_names[peak_joint].c_str());
+    const bool standing = base.z() > z0 - 0.05;
+    std::printf("  %s\n", standing ? "still standing" : "fell");
+    return standing ? 0 : 3;
+  } catch (const dynfilter::ModelError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}
