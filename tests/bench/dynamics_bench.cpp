@@ -9,8 +9,9 @@
 // is paid by the first query after setState, not by setState itself.
 //
 // Run with repetitions to get medians, e.g.
-//   ./build/tests/bench/bench_dynamics --benchmark_repetitions=10 \
+//   ./build/tests/bench/bench_dynamics --benchmark_repetitions=10
 //       --benchmark_report_aggregates_only=true
+// (one command line; see BENCHMARKS.md).
 
 #include <benchmark/benchmark.h>
 
