@@ -1,0 +1,84 @@
+#pragma once
+/// @file
+/// The dynamics filter (Yamane & Nakamura 2000), paper mode: one step per control tick.
+///
+/// Per tick, from the filter's own state (q, v):
+///  1. collision → virtual links (virtual_links.hpp), plastic impact when a link appears;
+///  2. joint-space feedback, Eq. 17, with the SE(3) difference for the base;
+///  3. task feedback of the point P, Eq. 18–20, with a weighted pseudo-inverse;
+///  4. Eq. 12 solved by Eq. 21–23 (paper_solver.hpp);
+///  5. semi-implicit Euler on the manifold: v ← v + v̇ dt, q ← q ⊕ v dt.
+/// The output pairs the state at which Eq. 12 was solved with v̇, τ_J and τ_C, so that any
+/// backend can re-evaluate Eq. 12 on it. step() does not allocate on the heap.
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+
+#include <Eigen/Core>
+
+#include "dynfilter/core/constrained_dynamics.hpp"
+#include "dynfilter/core/contact.hpp"
+#include "dynfilter/core/dynamics_model.hpp"
+#include "dynfilter/core/filter_options.hpp"
+#include "dynfilter/core/filter_output.hpp"
+#include "dynfilter/core/paper_solver.hpp"
+#include "dynfilter/core/reference_frame.hpp"
+#include "dynfilter/core/virtual_links.hpp"
+
+namespace dynfilter {
+
+class DynamicsFilter {
+ public:
+  /// The filter uses @p model for every query and changes its state; it must outlive the
+  /// filter. Throws std::invalid_argument on invalid options or an unknown task body.
+  DynamicsFilter(IDynamicsModel& model, const FilterOptions& options);
+
+  /// Starts from the reference frame's state. When the model then penetrates the
+  /// environment, the base is raised along world z until it no longer does (a floating
+  /// base only). Throws InvalidStateError on an invalid frame.
+  void reset(const ReferenceFrame& reference);
+
+  /// One control tick towards @p reference. Never throws; an invalid reference is
+  /// replaced by the last valid one and flagged in the status.
+  const FilterOutput& step(const ReferenceFrame& reference);
+
+  const FilterOutput& output() const { return out_; }
+  const Eigen::VectorXd& q() const { return q_; }
+  const Eigen::VectorXd& v() const { return v_; }
+  const FilterOptions& options() const { return options_; }
+  const VirtualLinkSet& links() const { return links_; }
+
+ private:
+  bool referenceValid(const ReferenceFrame& reference) const;
+  void desiredAcceleration(const ReferenceFrame& reference);
+  void reseed(const ReferenceFrame& reference);
+
+  IDynamicsModel& model_;
+  FilterOptions options_;
+  int nv_, nb_, nj_, task_body_ = -1;
+  Eigen::VectorXd q_, v_;
+  ReferenceFrame last_reference_;
+  bool has_reference_ = false;
+
+  VirtualLinkSet links_;
+  ContactList candidates_;
+  PaperSolver solver_;
+  ConstrainedDynamics constrained_;
+  FilterOutput out_;
+
+  // Workspace (sized once).
+  Eigen::MatrixXd A_, H_C_;
+  Eigen::VectorXd b_, u_C_, tau_C_, vdot_desired_, vdot_solved_, tau_J_solved_;
+  Eigen::VectorXd kp_, kd_, dq_, scratch_;
+  // Task point P at the reference state: position, orientation, velocity, acceleration.
+  Eigen::Vector3d task_p_ref_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d task_R_ref_ = Eigen::Matrix3d::Identity();
+  Vector6d task_rdot_ref_ = Vector6d::Zero();
+  Vector6d task_rddot_ref_ = Vector6d::Zero();
+  Matrix6Xd J_P_;
+  Eigen::MatrixXd JW_;          // 6 × nv: J_P Wq⁻¹
+  Eigen::VectorXd task_weight_inv_;  // nv
+};
+
+}  // namespace dynfilter

@@ -1,0 +1,73 @@
+#pragma once
+/// @file
+/// Gains and options of the dynamics filter. Defaults work on the human figure at a
+/// 1 kHz control rate and on 120 Hz mocap offline; every number is in SI units.
+
+#include <string>
+
+#include <Eigen/Core>
+
+namespace dynfilter {
+
+/// Joint-space feedback (Eq. 17): v̇ᵈ⁰ = v̇ʳᵉᶠ + K_D (vʳᵉᶠ − v) + K_P (qʳᵉᶠ ⊖ q).
+struct JointFeedbackGains {
+  double base_linear_kp = 100.0;   ///< 1/s², base translation
+  double base_linear_kd = 20.0;    ///< 1/s
+  double base_angular_kp = 100.0;  ///< 1/s², base rotation
+  double base_angular_kd = 20.0;   ///< 1/s
+  double joint_kp = 400.0;         ///< 1/s², every joint
+  double joint_kd = 40.0;          ///< 1/s
+};
+
+/// Task feedback of a point P on the upper body (Eq. 18–20).
+struct TaskPointOptions {
+  bool enabled = true;
+  std::string body = "torso";                                   ///< link of P
+  Eigen::Vector3d p_BP = Eigen::Vector3d(0.0, 0.0, 0.3);         ///< P in that link (m)
+  double kp_linear = 100.0, kd_linear = 20.0;    ///< 1/s², 1/s
+  double kp_angular = 100.0, kd_angular = 20.0;  ///< 1/s², 1/s
+  /// Weight of the joint coordinates relative to the base ones in the weighted
+  /// pseudo-inverse J_P^# = Wq⁻¹ J_Pᵀ (J_P Wq⁻¹ J_Pᵀ)⁻¹: > 1 moves the correction onto the base.
+  double joint_weight = 10.0;
+};
+
+/// Virtual links from collision (Sect. 3.1) and how they are held.
+struct ContactOptions {
+  int max_links = 8;                 ///< virtual links held at once (each up to 6 axes)
+  /// Baumgarte stabilisation of the virtual link error e: θ̈_C = −kd θ̇_C − kp e.
+  double stabilization_kp = 2500.0;  ///< 1/s²
+  double stabilization_kd = 100.0;   ///< 1/s
+  /// Points of one body closer than this in the contact plane merge into one (m).
+  double merge_distance_m = 2e-3;
+  /// A link whose normal force stays below this for release_ticks ticks is released (N).
+  double release_force_n = 0.0;
+  int release_ticks = 3;
+  /// A released body–object pair re-engages only when it penetrates this deep (m).
+  double reengage_depth_m = 1e-4;
+  /// On reset, a reference penetrating deeper than this is lifted out along world z (m).
+  double initial_penetration_tolerance_m = 1e-3;
+  /// Reset the velocity by a plastic impact when a virtual link appears.
+  bool plastic_impact = true;
+};
+
+/// The paper's solve (Eq. 21–23).
+struct PaperSolverOptions {
+  double accel_weight = 1.0;   ///< weight of v̇ in the weighted pseudo-inverse W^#
+  double force_weight = 1e-4;  ///< weight of τ_C in W^#; τ_J is not weighted
+  double sr_damping = 1e-4;    ///< k of the SR inverse V_G^* = V_Gᵀ (V_G V_Gᵀ + k I)⁻¹
+};
+
+struct FilterOptions {
+  double dt_s = 1e-3;  ///< control tick (s)
+  JointFeedbackGains feedback;
+  TaskPointOptions task;
+  ContactOptions contacts;
+  PaperSolverOptions solver;
+  /// Divergence guard: a base position error beyond this (m) re-seeds from the reference.
+  double max_base_error_m = 0.5;
+
+  /// Throws std::invalid_argument naming the option when a value is out of range.
+  void validate() const;
+};
+
+}  // namespace dynfilter

@@ -1,0 +1,69 @@
+#pragma once
+/// @file
+/// What one filter tick produces: the filtered state, torques, contact wrenches, the
+/// Eq. 12 residual, errors, timings and a status (MuJoCo-style: every tick reports).
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "dynfilter/core/types.hpp"
+
+namespace dynfilter {
+
+/// Per-tick outcome. Bits may combine; kOk is 0.
+enum FilterStatusBits : std::uint32_t {
+  kStatusOk = 0,
+  kStatusContactOverflow = 1u << 0,   ///< more virtual links than max_links; extras ignored
+  kStatusRankDeficient = 1u << 1,     ///< constraint rows were (near) dependent; regularised
+  kStatusNonFinite = 1u << 2,         ///< the solve produced NaN/Inf; state held, not published
+  kStatusReferenceInvalid = 1u << 3,  ///< the reference frame was rejected; previous one used
+  kStatusReseeded = 1u << 4,          ///< divergence: the state was reset to the reference
+  kStatusImpact = 1u << 5,            ///< a plastic impact reset the velocity this tick
+};
+
+/// Kinds of virtual link, by the number of constrained axes of the contact frame.
+enum class ContactKind : int { kPoint = 3, kEdge = 5, kFace = 6 };
+
+/// One virtual link's result this tick. Frame A: the link's anchor, z = surface normal.
+struct ContactOutput {
+  int body = -1;
+  int object = -1;
+  ContactKind kind = ContactKind::kPoint;
+  Eigen::Vector3d p_WC = Eigen::Vector3d::Zero();   ///< contact frame origin (m)
+  Eigen::Vector3d n_W = Eigen::Vector3d::UnitZ();   ///< surface normal
+  Vector6d wrench_W = Vector6d::Zero();             ///< [force; moment about p_WC], world (N, N m)
+  double normal_force_n = 0.0;                      ///< force along n_W (N); < 0 pulls
+  Eigen::Vector2d cop_A = Eigen::Vector2d::Zero();  ///< centre of pressure in the anchor xy (m)
+};
+
+struct FilterOutput {
+  double time_s = 0.0;
+  std::uint32_t status = kStatusOk;
+  Eigen::VectorXd q;      ///< dim nq, filtered configuration after the tick
+  Eigen::VectorXd v;      ///< dim nv
+  Eigen::VectorXd vdot;   ///< dim nv, the acceleration that satisfies Eq. 12
+  Eigen::VectorXd tau_J;  ///< dim nj, joint torques (N m / N)
+  std::vector<ContactOutput> contacts;  ///< capacity max_links; first num_contacts valid
+  int num_contacts = 0;
+  Eigen::VectorXd tracking_error;  ///< dim nv: qʳᵉᶠ ⊖ q before the tick
+  Vector6d task_error = Vector6d::Zero();  ///< P pose error [m; rad] before the tick
+  double eq12_residual = 0.0;  ///< max |W x − u| over all rows (N, N m, m/s²)
+  double base_residual_n = 0.0;  ///< max |row| of the six unactuated base rows (N, N m)
+  double solve_time_s = 0.0;     ///< Eq. 21–23 only
+  double tick_time_s = 0.0;      ///< the whole tick
+  double max_penetration_m = 0.0;
+
+  FilterOutput() = default;
+  FilterOutput(int nq, int nv, int nj, int max_links)
+      : q(Eigen::VectorXd::Zero(nq)),
+        v(Eigen::VectorXd::Zero(nv)),
+        vdot(Eigen::VectorXd::Zero(nv)),
+        tau_J(Eigen::VectorXd::Zero(nj)),
+        contacts(static_cast<std::size_t>(max_links)),
+        tracking_error(Eigen::VectorXd::Zero(nv)) {}
+};
+
+}  // namespace dynfilter

@@ -1,0 +1,100 @@
+#pragma once
+/// @file
+/// Contacts as the paper's virtual links (Sect. 3.1): each joins a robot body to the
+/// environment through a 6-DoF joint of which some axes are constrained.
+///
+/// Frames: C is fixed on the body (origin at the contact, z along the surface normal at
+/// creation); A is the anchor, fixed in the world on the environment surface where the
+/// link was created (z = surface normal). The virtual joint's coordinates are the pose of
+/// C relative to A, e = [R_WAᵀ (p_WC − p_WA); log(R_WAᵀ R_WC)], and its velocity is the
+/// body's point velocity rotated into A. Constrained rows of that velocity form H_C.
+///
+/// Kinds, chosen from the geometry of the collision points of one body–object pair:
+/// one point → kPoint (3 translations); points on a line → kEdge (all but the rotation
+/// about the edge, which is A's x axis); a polygon → kFace (all 6 axes).
+///
+/// A link persists while held (collision points at a surface flicker; the constraint does
+/// not). It is released when its normal force stays below ContactOptions::release_force_n
+/// for release_ticks ticks; the pair then stays free until it penetrates again by
+/// reengage_depth_m. More collision points on a held pair upgrade the link (point → edge
+/// → face) with a new anchor.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "dynfilter/core/contact.hpp"
+#include "dynfilter/core/dynamics_model.hpp"
+#include "dynfilter/core/filter_options.hpp"
+#include "dynfilter/core/filter_output.hpp"
+
+namespace dynfilter {
+
+struct VirtualLink {
+  int body = -1;
+  int object = kGroundObject;
+  ContactKind kind = ContactKind::kPoint;
+  Eigen::Isometry3d X_BC = Eigen::Isometry3d::Identity();  ///< contact frame on the body
+  Eigen::Isometry3d X_WA = Eigen::Isometry3d::Identity();  ///< anchor in world
+  int num_axes = 3;
+  std::array<int, 6> axes{};  ///< constrained axes of [x, y, z, rx, ry, rz] in A
+  int low_force_ticks = 0;
+  bool created_this_tick = false;
+};
+
+/// Indices of the constrained axes of a link kind, in A's [x, y, z, rx, ry, rz].
+int constrainedAxes(ContactKind kind, std::array<int, 6>& axes);
+
+class VirtualLinkSet {
+ public:
+  /// @param max_links capacity; nothing allocates after construction.
+  VirtualLinkSet(const ContactOptions& options, int nv);
+
+  /// Creates, keeps or upgrades links from the collision candidates of the model's
+  /// current state. Returns the number of links created or upgraded this tick (they
+  /// need a plastic impact). Sets kStatusContactOverflow in @p status when full.
+  int update(const IDynamicsModel& model, const ContactList& candidates, std::uint32_t& status);
+
+  /// Forgets every link and released pair.
+  void clear();
+
+  int size() const { return size_; }
+  const VirtualLink& operator[](int i) const { return links_[static_cast<std::size_t>(i)]; }
+  /// Total constrained rows N_C.
+  int numRows() const;
+
+  /// Fills the rows of Eq. 9 with Baumgarte stabilisation:
+  /// H_C (N_C × nv) and u_C = θ̈_C,desired − Ḣ_C v (N_C), with θ̈_C,desired = −kd θ̇_C − kp e.
+  /// @param H_C, u_C at least numRows() rows; only the top numRows() are written.
+  void assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::MatrixXd> H_C,
+                Eigen::Ref<Eigen::VectorXd> u_C);
+
+  /// After a solve: converts τ_C (N_C, in anchor axes) to per-link outputs, counts low
+  /// normal force and releases links that stayed below the threshold.
+  /// @param contacts capacity ≥ size(); returns the number written.
+  int finishTick(const IDynamicsModel& model, const Eigen::Ref<const Eigen::VectorXd>& tau_C,
+                 std::vector<ContactOutput>& contacts, bool allow_release);
+
+ private:
+  struct ReleasedPair {
+    int body;
+    int object;
+  };
+  int findLink(int body, int object) const;
+  bool isReleased(int body, int object) const;
+  bool makeLink(const IDynamicsModel& model, const ContactList& candidates, int body, int object,
+                VirtualLink& link) const;
+
+  ContactOptions options_;
+  std::vector<VirtualLink> links_;
+  int size_ = 0;
+  std::vector<ReleasedPair> released_;
+  int num_released_ = 0;
+  std::vector<char> grouped_;  // per candidate, scratch
+  Matrix6Xd J_;                // 6 × nv scratch
+};
+
+}  // namespace dynfilter

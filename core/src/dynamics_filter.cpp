@@ -1,0 +1,239 @@
+#include "dynfilter/core/dynamics_filter.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Cholesky>
+
+#include "dynfilter/core/errors.hpp"
+#include "dynfilter/core/lie_group.hpp"
+
+namespace dynfilter {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Capacity of the collision candidate list: several points per touching shape.
+constexpr std::size_t kMaxCandidates = 64;
+
+}  // namespace
+
+DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& options)
+    : model_(model),
+      options_((options.validate(), options)),
+      nv_(model.nv()),
+      nb_(model.info().floating_base ? kFloatingBaseNv : 0),
+      nj_(model.nj()),
+      links_(options.contacts, model.nv()),
+      candidates_(kMaxCandidates),
+      solver_(model.nv(), model.info().floating_base ? kFloatingBaseNv : 0,
+              6 * options.contacts.max_links, options.solver),
+      constrained_(model.nv(), model.info().floating_base ? kFloatingBaseNv : 0,
+                   6 * options.contacts.max_links),
+      out_(model.nq(), model.nv(), model.nj(), options.contacts.max_links) {
+  const ModelInfo& info = model.info();
+  if (options_.task.enabled) {
+    task_body_ = info.findBody(options_.task.body);
+    if (task_body_ < 0)
+      throw std::invalid_argument("filter option task.body: \"" + options_.task.body +
+                                  "\" is not a link of model \"" + info.name + "\"");
+  }
+  const int max_rows = 6 * options_.contacts.max_links;
+  q_ = info.neutralConfiguration();
+  v_.setZero(nv_);
+  last_reference_ = ReferenceFrame(info.nq, nv_);
+  A_.setZero(nv_, nv_);
+  H_C_.setZero(max_rows, nv_);
+  b_.setZero(nv_);
+  u_C_.setZero(max_rows);
+  tau_C_.setZero(max_rows);
+  vdot_desired_.setZero(nv_);
+  vdot_solved_.setZero(nv_);
+  tau_J_solved_.setZero(nj_);
+  dq_.setZero(nv_);
+  scratch_.setZero(nv_);
+  J_P_.setZero(6, nv_);
+  JW_.setZero(6, nv_);
+  kp_.setConstant(nv_, options_.feedback.joint_kp);
+  kd_.setConstant(nv_, options_.feedback.joint_kd);
+  task_weight_inv_.setConstant(nv_, 1.0 / options_.task.joint_weight);
+  if (nb_ > 0) {
+    kp_.head<3>().setConstant(options_.feedback.base_linear_kp);
+    kd_.head<3>().setConstant(options_.feedback.base_linear_kd);
+    kp_.segment<3>(3).setConstant(options_.feedback.base_angular_kp);
+    kd_.segment<3>(3).setConstant(options_.feedback.base_angular_kd);
+    task_weight_inv_.head<6>().setOnes();
+  }
+}
+
+bool DynamicsFilter::referenceValid(const ReferenceFrame& reference) const {
+  return std::isfinite(reference.time_s) && model_.info().checkState(reference.q, reference.v).ok &&
+         reference.vdot.size() == nv_ && reference.vdot.allFinite();
+}
+
+void DynamicsFilter::reset(const ReferenceFrame& reference) {
+  model_.info().requireValidState(reference.q, reference.v);
+  if (reference.vdot.size() != nv_ || !reference.vdot.allFinite())
+    throw InvalidStateError("reference acceleration must have nv = " + std::to_string(nv_) +
+                            " finite entries");
+  last_reference_.time_s = reference.time_s;
+  last_reference_.q = reference.q;
+  last_reference_.q.segment(3, nb_ > 0 ? 4 : 0).normalize();
+  last_reference_.v = reference.v;
+  last_reference_.vdot = reference.vdot;
+  has_reference_ = true;
+  reseed(last_reference_);
+}
+
+void DynamicsFilter::reseed(const ReferenceFrame& reference) {
+  q_ = reference.q;
+  v_ = reference.v;
+  links_.clear();
+  if (nb_ == 0) return;
+  // Lift the base out of the environment when the reference sinks into it deeper than
+  // the tolerance: the filter must not start inside the floor. Shallower contact is left
+  // to the constraint stabilisation.
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    model_.setState(q_, v_);
+    model_.detectContacts(candidates_);
+    double lift = 0.0, depth = 0.0;
+    for (const ContactCandidate& c : candidates_) {
+      depth = std::max(depth, c.depth_m);
+      lift = std::max(lift, c.depth_m / std::max(c.n_W.z(), 0.1));
+    }
+    if (depth <= options_.contacts.initial_penetration_tolerance_m) break;
+    q_[2] += lift;
+  }
+}
+
+void DynamicsFilter::desiredAcceleration(const ReferenceFrame& reference) {
+  // Eq. 17 with qʳᵉᶠ ⊖ q on SE(3) × Rⁿ.
+  differenceConfiguration(nb_ > 0, q_, reference.q, dq_);
+  vdot_desired_ = reference.vdot;
+  vdot_desired_.array() +=
+      kd_.array() * (reference.v - v_).array() + kp_.array() * dq_.array();
+  if (task_body_ < 0) return;
+
+  // Eq. 18–20: pose feedback of P, mapped by a weighted pseudo-inverse of J_P.
+  const TaskPointOptions& task = options_.task;
+  const Eigen::Isometry3d X_WB = model_.bodyPose(task_body_);
+  model_.pointJacobian(task_body_, task.p_BP, J_P_);
+  const Vector6d drift = model_.pointJacobianDotTimesV(task_body_, task.p_BP);
+  const Vector6d rdot = J_P_ * v_;
+  Vector6d& error = out_.task_error;
+  error.head<3>() = task_p_ref_ - X_WB * task.p_BP;
+  error.tail<3>() = logSO3(task_R_ref_ * X_WB.linear().transpose());
+  Vector6d rddot_desired = task_rddot_ref_;
+  rddot_desired.head<3>() += task.kd_linear * (task_rdot_ref_.head<3>() - rdot.head<3>()) +
+                             task.kp_linear * error.head<3>();
+  rddot_desired.tail<3>() += task.kd_angular * (task_rdot_ref_.tail<3>() - rdot.tail<3>()) +
+                             task.kp_angular * error.tail<3>();
+  const Vector6d rddot_d0 = J_P_ * vdot_desired_ + drift;
+  JW_ = J_P_ * task_weight_inv_.asDiagonal();
+  const Matrix6d S = JW_ * J_P_.transpose();
+  const Eigen::LLT<Matrix6d> llt(S);
+  const Vector6d s = llt.solve(rddot_desired - rddot_d0);
+  vdot_desired_.noalias() += JW_.transpose() * s;
+}
+
+const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
+  const Clock::time_point t0 = Clock::now();
+  std::uint32_t status = kStatusOk;
+  if (referenceValid(reference)) {
+    last_reference_.time_s = reference.time_s;
+    last_reference_.q = reference.q;
+    if (nb_ > 0) last_reference_.q.segment<4>(3).normalize();
+    last_reference_.v = reference.v;
+    last_reference_.vdot = reference.vdot;
+    if (!has_reference_) {
+      has_reference_ = true;
+      reseed(last_reference_);
+    }
+  } else {
+    status |= kStatusReferenceInvalid;
+    if (!has_reference_) {  // nothing to hold on to yet
+      out_.status = status;
+      return out_;
+    }
+  }
+  const ReferenceFrame& ref = last_reference_;
+
+  // Reference kinematics of the task point P.
+  if (task_body_ >= 0) {
+    model_.setState(ref.q, ref.v);
+    const Eigen::Isometry3d X_WB = model_.bodyPose(task_body_);
+    task_p_ref_ = X_WB * options_.task.p_BP;
+    task_R_ref_ = X_WB.linear();
+    model_.pointJacobian(task_body_, options_.task.p_BP, J_P_);
+    task_rdot_ref_ = J_P_ * ref.v;
+    task_rddot_ref_ = J_P_ * ref.vdot + model_.pointJacobianDotTimesV(task_body_, options_.task.p_BP);
+  }
+
+  // Contacts at the filter's state, and the plastic impact of new links.
+  model_.setState(q_, v_);
+  model_.detectContacts(candidates_);
+  out_.max_penetration_m = 0.0;
+  for (const ContactCandidate& c : candidates_)
+    out_.max_penetration_m = std::max(out_.max_penetration_m, c.depth_m);
+  const int created = links_.update(model_, candidates_, status);
+  const int nc = links_.numRows();
+  auto H_C = H_C_.topRows(nc);
+  auto u_C = u_C_.head(nc);
+  auto tau_C = tau_C_.head(nc);
+  model_.massMatrix(A_);
+  if (created > 0 && nc > 0 && options_.contacts.plastic_impact) {
+    links_.assemble(model_, H_C, u_C);
+    if (constrained_.plasticImpact(A_, H_C, v_, tau_C)) {
+      model_.setState(q_, v_);
+      status |= kStatusImpact;
+    }
+  }
+  model_.bias(b_);
+  links_.assemble(model_, H_C, u_C);
+  desiredAcceleration(ref);
+
+  // Eq. 21–23.
+  const Clock::time_point t_solve = Clock::now();
+  status |= solver_.solve(A_, b_, H_C, u_C, vdot_desired_, vdot_solved_, tau_C, tau_J_solved_);
+  out_.solve_time_s = secondsSince(t_solve);
+
+  const bool finite = vdot_solved_.allFinite() && tau_J_solved_.allFinite() && tau_C.allFinite();
+  if (!finite) {
+    // Keep the last good output and state; start over from the reference.
+    status |= kStatusNonFinite | kStatusReseeded;
+    reseed(ref);
+    out_.status = status;
+    out_.tick_time_s = secondsSince(t0);
+    return out_;
+  }
+  const Eq12Residual residual =
+      eq12Residual(A_, b_, H_C, u_C, nb_, vdot_solved_, tau_C, tau_J_solved_, scratch_);
+  out_.eq12_residual = residual.max_abs;
+  out_.base_residual_n = residual.base_max_abs;
+  out_.num_contacts = links_.finishTick(model_, tau_C, out_.contacts, true);
+  out_.time_s = ref.time_s;
+  out_.q = q_;
+  out_.v = v_;
+  out_.vdot = vdot_solved_;
+  out_.tau_J = tau_J_solved_;
+  out_.tracking_error = dq_;
+
+  // Semi-implicit Euler on the manifold.
+  v_.noalias() += options_.dt_s * vdot_solved_;
+  integrateConfiguration(nb_ > 0, q_, v_, options_.dt_s, q_);
+
+  if (nb_ > 0 && dq_.head<3>().norm() > options_.max_base_error_m) {
+    status |= kStatusReseeded;
+    reseed(ref);
+  }
+  out_.status = status;
+  out_.tick_time_s = secondsSince(t0);
+  return out_;
+}
+
+}  // namespace dynfilter

@@ -1,0 +1,44 @@
+#include "dynfilter/core/filter_options.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace dynfilter {
+namespace {
+void require(bool ok, const char* name, const char* rule) {
+  if (!ok) throw std::invalid_argument(std::string("filter option ") + name + " " + rule);
+}
+bool nonNegative(double x) { return std::isfinite(x) && x >= 0.0; }
+bool positive(double x) { return std::isfinite(x) && x > 0.0; }
+}  // namespace
+
+void FilterOptions::validate() const {
+  require(positive(dt_s) && dt_s <= 0.1, "dt_s", "must be in (0, 0.1] s");
+  const JointFeedbackGains& f = feedback;
+  for (double g : {f.base_linear_kp, f.base_linear_kd, f.base_angular_kp, f.base_angular_kd,
+                   f.joint_kp, f.joint_kd})
+    require(nonNegative(g), "feedback.*", "gains must be finite and >= 0");
+  require(nonNegative(task.kp_linear) && nonNegative(task.kd_linear) &&
+              nonNegative(task.kp_angular) && nonNegative(task.kd_angular),
+          "task.k*", "gains must be finite and >= 0");
+  require(positive(task.joint_weight), "task.joint_weight", "must be > 0");
+  require(task.p_BP.allFinite(), "task.p_BP", "must be finite");
+  require(!task.enabled || !task.body.empty(), "task.body", "must name a link");
+  require(contacts.max_links >= 1 && contacts.max_links <= 64, "contacts.max_links",
+          "must be in [1, 64]");
+  require(nonNegative(contacts.stabilization_kp) && nonNegative(contacts.stabilization_kd),
+          "contacts.stabilization_k*", "must be finite and >= 0");
+  require(positive(contacts.merge_distance_m), "contacts.merge_distance_m", "must be > 0");
+  require(std::isfinite(contacts.release_force_n), "contacts.release_force_n", "must be finite");
+  require(contacts.release_ticks >= 1, "contacts.release_ticks", "must be >= 1");
+  require(nonNegative(contacts.reengage_depth_m), "contacts.reengage_depth_m", "must be >= 0");
+  require(nonNegative(contacts.initial_penetration_tolerance_m),
+          "contacts.initial_penetration_tolerance_m", "must be >= 0");
+  require(positive(solver.accel_weight), "solver.accel_weight", "must be > 0");
+  require(positive(solver.force_weight), "solver.force_weight", "must be > 0");
+  require(positive(solver.sr_damping), "solver.sr_damping", "must be > 0");
+  require(positive(max_base_error_m), "max_base_error_m", "must be > 0");
+}
+
+}  // namespace dynfilter

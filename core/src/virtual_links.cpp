@@ -1,0 +1,270 @@
+#include "dynfilter/core/virtual_links.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "dynfilter/core/lie_group.hpp"
+
+namespace dynfilter {
+namespace {
+
+// A unit vector orthogonal to n, preferring the projection of @p hint.
+Eigen::Vector3d tangentFrom(const Eigen::Vector3d& n, const Eigen::Vector3d& hint) {
+  Eigen::Vector3d t = hint - n * n.dot(hint);
+  if (t.norm() < 1e-6) {
+    const Eigen::Vector3d other = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX()
+                                                       : Eigen::Vector3d::UnitY();
+    t = other - n * n.dot(other);
+  }
+  return t.normalized();
+}
+
+}  // namespace
+
+int constrainedAxes(ContactKind kind, std::array<int, 6>& axes) {
+  switch (kind) {
+    case ContactKind::kPoint:
+      axes = {0, 1, 2, 0, 0, 0};
+      return 3;
+    case ContactKind::kEdge:  // free rotation about the edge (x)
+      axes = {0, 1, 2, 4, 5, 0};
+      return 5;
+    case ContactKind::kFace:
+      axes = {0, 1, 2, 3, 4, 5};
+      return 6;
+  }
+  return 0;
+}
+
+VirtualLinkSet::VirtualLinkSet(const ContactOptions& options, int nv)
+    : options_(options),
+      links_(static_cast<std::size_t>(options.max_links)),
+      released_(static_cast<std::size_t>(2 * options.max_links + 8)),
+      grouped_(256, 0),
+      J_(6, nv) {}
+
+void VirtualLinkSet::clear() {
+  size_ = 0;
+  num_released_ = 0;
+}
+
+int VirtualLinkSet::numRows() const {
+  int rows = 0;
+  for (int i = 0; i < size_; ++i) rows += links_[static_cast<std::size_t>(i)].num_axes;
+  return rows;
+}
+
+int VirtualLinkSet::findLink(int body, int object) const {
+  for (int i = 0; i < size_; ++i) {
+    const VirtualLink& l = links_[static_cast<std::size_t>(i)];
+    if (l.body == body && l.object == object) return i;
+  }
+  return -1;
+}
+
+bool VirtualLinkSet::makeLink(const IDynamicsModel& model, const ContactList& candidates,
+                              int body, int object, VirtualLink& link) const {
+  // Average normal and depth of the pair's points.
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  double depth = 0.0;
+  int count = 0;
+  for (const ContactCandidate& c : candidates) {
+    if (c.body != body || c.object != object) continue;
+    n += c.n_W;
+    depth += c.depth_m;
+    ++count;
+  }
+  if (count == 0 || n.norm() < 1e-9) return false;
+  n.normalize();
+  depth /= count;
+
+  const Eigen::Isometry3d X_WB = model.bodyPose(body);
+  const Eigen::Vector3d t1 = tangentFrom(n, X_WB.linear().col(0));
+  const Eigen::Vector3d t2 = n.cross(t1);
+  // Farthest pair in the contact plane, centroid of the points.
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  const ContactCandidate* first = nullptr;
+  const ContactCandidate* far_a = nullptr;
+  const ContactCandidate* far_b = nullptr;
+  double far_d = -1.0;
+  for (const ContactCandidate& a : candidates) {
+    if (a.body != body || a.object != object) continue;
+    centroid += a.p_WC;
+    if (first == nullptr) first = &a;
+    for (const ContactCandidate& b : candidates) {
+      if (b.body != body || b.object != object) continue;
+      const Eigen::Vector3d d = b.p_WC - a.p_WC;
+      const double planar = std::hypot(t1.dot(d), t2.dot(d));
+      if (planar > far_d) {
+        far_d = planar;
+        far_a = &a;
+        far_b = &b;
+      }
+    }
+  }
+  centroid /= count;
+
+  Eigen::Vector3d x_axis = t1;
+  Eigen::Vector3d origin = centroid;
+  if (far_d < options_.merge_distance_m) {
+    link.kind = ContactKind::kPoint;
+  } else {
+    const Eigen::Vector3d d = far_b->p_WC - far_a->p_WC;
+    const Eigen::Vector3d edge = (t1 * t1.dot(d) + t2 * t2.dot(d)).normalized();
+    double off_line = 0.0;
+    for (const ContactCandidate& c : candidates) {
+      if (c.body != body || c.object != object) continue;
+      const Eigen::Vector3d r = c.p_WC - far_a->p_WC;
+      const Eigen::Vector3d planar = t1 * t1.dot(r) + t2 * t2.dot(r);
+      off_line = std::max(off_line, (planar - edge * edge.dot(planar)).norm());
+    }
+    if (off_line < options_.merge_distance_m) {
+      link.kind = ContactKind::kEdge;
+      x_axis = edge;
+      origin = 0.5 * (far_a->p_WC + far_b->p_WC);
+    } else {
+      link.kind = ContactKind::kFace;
+    }
+  }
+  Eigen::Isometry3d X_WC = Eigen::Isometry3d::Identity();
+  X_WC.linear().col(0) = x_axis;
+  X_WC.linear().col(1) = n.cross(x_axis);
+  X_WC.linear().col(2) = n;
+  X_WC.translation() = origin;
+  link.body = body;
+  link.object = object;
+  link.X_BC = X_WB.inverse() * X_WC;
+  link.X_WA = X_WC;
+  link.X_WA.translation() = origin + n * depth;  // on the environment's surface
+  link.num_axes = constrainedAxes(link.kind, link.axes);
+  link.low_force_ticks = 0;
+  link.created_this_tick = true;
+  return true;
+}
+
+bool VirtualLinkSet::isReleased(int body, int object) const {
+  for (int r = 0; r < num_released_; ++r) {
+    const ReleasedPair& pair = released_[static_cast<std::size_t>(r)];
+    if (pair.body == body && pair.object == object) return true;
+  }
+  return false;
+}
+
+int VirtualLinkSet::update(const IDynamicsModel& model, const ContactList& candidates,
+                           std::uint32_t& status) {
+  for (int i = 0; i < size_; ++i) links_[static_cast<std::size_t>(i)].created_this_tick = false;
+
+  // Released pairs: forget those that no longer touch, and those that penetrate again.
+  int kept = 0;
+  for (int r = 0; r < num_released_; ++r) {
+    const ReleasedPair pair = released_[static_cast<std::size_t>(r)];
+    double depth = -1.0;
+    for (const ContactCandidate& c : candidates)
+      if (c.body == pair.body && c.object == pair.object) depth = std::max(depth, c.depth_m);
+    if (depth >= 0.0 && depth < options_.reengage_depth_m)
+      released_[static_cast<std::size_t>(kept++)] = pair;
+  }
+  num_released_ = kept;
+
+  const std::size_t n = std::min(candidates.size(), grouped_.size());
+  std::fill(grouped_.begin(), grouped_.begin() + static_cast<std::ptrdiff_t>(n), 0);
+  int created = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (grouped_[i]) continue;
+    const int body = candidates[i].body;
+    const int object = candidates[i].object;
+    for (std::size_t j = i; j < n; ++j)
+      if (candidates[j].body == body && candidates[j].object == object) grouped_[j] = 1;
+    if (isReleased(body, object)) continue;
+    VirtualLink fresh;
+    if (!makeLink(model, candidates, body, object, fresh)) continue;
+    const int existing = findLink(body, object);
+    if (existing >= 0) {
+      VirtualLink& held = links_[static_cast<std::size_t>(existing)];
+      if (static_cast<int>(fresh.kind) > static_cast<int>(held.kind)) {  // upgrade
+        held = fresh;
+        ++created;
+      }
+    } else if (size_ < static_cast<int>(links_.size())) {
+      links_[static_cast<std::size_t>(size_++)] = fresh;
+      ++created;
+    } else {
+      status |= kStatusContactOverflow;
+    }
+  }
+  if (candidates.overflow() > 0 || candidates.size() > grouped_.size())
+    status |= kStatusContactOverflow;
+  return created;
+}
+
+void VirtualLinkSet::assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::MatrixXd> H_C,
+                              Eigen::Ref<Eigen::VectorXd> u_C) {
+  const Eigen::Ref<const Eigen::VectorXd> v = model.v();
+  int row = 0;
+  for (int i = 0; i < size_; ++i) {
+    const VirtualLink& link = links_[static_cast<std::size_t>(i)];
+    const Eigen::Vector3d& p_BC = link.X_BC.translation();
+    model.pointJacobian(link.body, p_BC, J_);
+    const Vector6d drift_W = model.pointJacobianDotTimesV(link.body, p_BC);
+    const Eigen::Matrix3d R_AW = link.X_WA.linear().transpose();
+    const Eigen::Isometry3d X_WC = model.bodyPose(link.body) * link.X_BC;
+    Vector6d error_A, drift_A;
+    error_A.head<3>() = R_AW * (X_WC.translation() - link.X_WA.translation());
+    error_A.tail<3>() = logSO3(R_AW * X_WC.linear());
+    drift_A.head<3>() = R_AW * drift_W.head<3>();
+    drift_A.tail<3>() = R_AW * drift_W.tail<3>();
+    for (int k = 0; k < link.num_axes; ++k) {
+      const int axis = link.axes[static_cast<std::size_t>(k)];
+      const Eigen::Matrix3d& R = R_AW;
+      if (axis < 3) {
+        H_C.row(row) = R.row(axis) * J_.topRows<3>();
+      } else {
+        H_C.row(row) = R.row(axis - 3) * J_.bottomRows<3>();
+      }
+      const double velocity = H_C.row(row).dot(v);
+      const double desired = -options_.stabilization_kd * velocity -
+                             options_.stabilization_kp * error_A[axis];
+      u_C[row] = desired - drift_A[axis];
+      ++row;
+    }
+  }
+}
+
+int VirtualLinkSet::finishTick(const IDynamicsModel& model,
+                               const Eigen::Ref<const Eigen::VectorXd>& tau_C,
+                               std::vector<ContactOutput>& contacts, bool allow_release) {
+  int row = 0;
+  int written = 0;
+  int kept = 0;
+  for (int i = 0; i < size_; ++i) {
+    VirtualLink& link = links_[static_cast<std::size_t>(i)];
+    Vector6d wrench_A = Vector6d::Zero();
+    for (int k = 0; k < link.num_axes; ++k) wrench_A[link.axes[static_cast<std::size_t>(k)]] = tau_C[row++];
+    if (written < static_cast<int>(contacts.size())) {
+      ContactOutput& out = contacts[static_cast<std::size_t>(written++)];
+      const Eigen::Matrix3d& R_WA = link.X_WA.linear();
+      out.body = link.body;
+      out.object = link.object;
+      out.kind = link.kind;
+      out.p_WC = (model.bodyPose(link.body) * link.X_BC).translation();
+      out.n_W = R_WA.col(2);
+      out.wrench_W.head<3>() = R_WA * wrench_A.head<3>();
+      out.wrench_W.tail<3>() = R_WA * wrench_A.tail<3>();
+      out.normal_force_n = wrench_A[2];
+      out.cop_A.setZero();
+      if (link.kind != ContactKind::kPoint && wrench_A[2] > 1e-9)
+        out.cop_A = Eigen::Vector2d(-wrench_A[4] / wrench_A[2], wrench_A[3] / wrench_A[2]);
+    }
+    link.low_force_ticks = wrench_A[2] < options_.release_force_n ? link.low_force_ticks + 1 : 0;
+    const bool release = allow_release && link.low_force_ticks >= options_.release_ticks;
+    if (release && num_released_ < static_cast<int>(released_.size())) {
+      released_[static_cast<std::size_t>(num_released_++)] = {link.body, link.object};
+      continue;
+    }
+    links_[static_cast<std::size_t>(kept++)] = link;
+  }
+  size_ = kept;
+  return written;
+}
+
+}  // namespace dynfilter

@@ -1,0 +1,174 @@
+// Properties of the filter's output on the human figure (paper mode).
+#include <cmath>
+#include <memory>
+
+#include <gtest/gtest.h>
+
+#include "dynfilter/core/dynamics_filter.hpp"
+#include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
+#include "support/reference_motions.hpp"
+#include "support/test_support.hpp"
+
+namespace dynfilter {
+namespace {
+
+constexpr double kDt = 1e-3;
+
+class FilterOnHumanFigure : public testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+    sway_ = new std::vector<ReferenceFrame>(test::simulateStandingSway(*model, 2.0, kDt));
+  }
+  static void TearDownTestSuite() {
+    delete sway_;
+    sway_ = nullptr;
+  }
+
+  struct RunSummary {
+    double max_base_residual_n = 0.0;
+    double max_penetration_m = 0.0;
+    double max_joint_error = 0.0;
+    double max_base_position_error = 0.0;
+    double max_abs_q_difference = 0.0;  // |q_filter − q_ref| componentwise
+    int frames = 0;
+    std::uint32_t status_union = 0;
+  };
+
+  static RunSummary run(IDynamicsModel& model, const std::vector<ReferenceFrame>& frames,
+                        const FilterOptions& options = FilterOptions{}) {
+    DynamicsFilter filter(model, options);
+    filter.reset(frames.front());
+    RunSummary s;
+    for (const ReferenceFrame& ref : frames) {
+      const FilterOutput& out = filter.step(ref);
+      EXPECT_TRUE(out.q.allFinite() && out.v.allFinite() && out.vdot.allFinite() &&
+                  out.tau_J.allFinite());
+      s.max_base_residual_n = std::max(s.max_base_residual_n, out.base_residual_n);
+      s.max_penetration_m = std::max(s.max_penetration_m, out.max_penetration_m);
+      s.max_joint_error =
+          std::max(s.max_joint_error, out.tracking_error.tail(model.nj()).cwiseAbs().maxCoeff());
+      s.max_base_position_error =
+          std::max(s.max_base_position_error, out.tracking_error.head<3>().norm());
+      Eigen::VectorXd diff(model.nv());
+      differenceConfiguration(true, ref.q, out.q, diff);
+      s.max_abs_q_difference = std::max(s.max_abs_q_difference, diff.cwiseAbs().maxCoeff());
+      s.status_union |= out.status;
+      ++s.frames;
+    }
+    return s;
+  }
+
+  static std::vector<ReferenceFrame> shifted(double dz) {
+    std::vector<ReferenceFrame> frames = *sway_;
+    for (auto& f : frames) f.q[2] += dz;
+    return frames;
+  }
+
+  static std::vector<ReferenceFrame>* sway_;
+};
+std::vector<ReferenceFrame>* FilterOnHumanFigure::sway_ = nullptr;
+
+TEST_F(FilterOnHumanFigure, AConsistentReferencePassesThroughNearlyUnchanged) {
+  // Reference simulated (Eq. 14) at the filter's own tick, 0.2 ms, for 1 s: the filter
+  // must give it back.
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const double dt = 2e-4;
+  const auto frames = test::simulateStandingSway(*model, 1.0, dt, 0.15, 0.5, 1);
+  FilterOptions options;
+  options.dt_s = dt;
+  const RunSummary s = run(*model, frames, options);
+  RecordProperty("max_abs_q_difference", std::to_string(s.max_abs_q_difference));
+  EXPECT_LT(s.max_abs_q_difference, 1e-5) << "rad or m, over 1 s";
+  EXPECT_LT(s.max_base_residual_n, 1e-8 * 70.0 * 9.81);
+  EXPECT_EQ(s.status_union & (kStatusNonFinite | kStatusReseeded | kStatusRankDeficient), 0u);
+}
+
+TEST_F(FilterOnHumanFigure, AConsistentReferenceAtACoarserTickStaysClose) {
+  // The same kind of reference, simulated 5× finer than the 1 kHz filter tick: only the
+  // filter's own integration error separates them.
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const RunSummary s = run(*model, *sway_);
+  RecordProperty("max_abs_q_difference", std::to_string(s.max_abs_q_difference));
+  EXPECT_LT(s.max_abs_q_difference, 1e-2) << "rad or m, over 2 s at 1 kHz";
+  EXPECT_LT(s.max_base_residual_n, 1e-8 * 70.0 * 9.81);
+}
+
+TEST_F(FilterOnHumanFigure, LiftedReferenceStillStandsOnTheGround) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const RunSummary s = run(*model, shifted(0.03));
+  EXPECT_LT(s.max_base_residual_n, 1e-8 * 70.0 * 9.81);
+  EXPECT_LT(s.max_penetration_m, 1e-3);
+  EXPECT_LT(s.max_base_position_error, 0.06);  // it cannot float: ~3 cm below the reference
+  EXPECT_LT(s.max_joint_error, 0.1);
+  EXPECT_TRUE(s.status_union & kStatusImpact) << "the figure drops onto the floor";
+}
+
+TEST_F(FilterOnHumanFigure, SinkingReferenceDoesNotPenetrate) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const RunSummary s = run(*model, shifted(-0.02));
+  EXPECT_LT(s.max_base_residual_n, 1e-8 * 70.0 * 9.81);
+  EXPECT_LT(s.max_penetration_m, 1e-3);
+  EXPECT_LT(s.max_base_position_error, 0.04);
+  EXPECT_LT(s.max_joint_error, 0.1);
+}
+
+TEST_F(FilterOnHumanFigure, DoubledBodyMassIsStillConsistent) {
+  // The model weighs 140 kg; the reference was made with the 70 kg figure.
+  const std::string heavy = testing::TempDir() + "/heavy_figure.urdf";
+  ASSERT_EQ(std::system(("python3 " + test::sourcePath("models/generate_human_figure.py") +
+                         " --mass 140 -o " + heavy).c_str()), 0);
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(heavy), ModelOptions{});
+  const RunSummary s = run(*model, *sway_);
+  EXPECT_LT(s.max_base_residual_n, 1e-8 * 140.0 * 9.81);
+  EXPECT_LT(s.max_penetration_m, 1e-3);
+  EXPECT_LT(s.max_base_position_error, 0.05);
+  EXPECT_LT(s.max_joint_error, 0.1);
+}
+
+TEST_F(FilterOnHumanFigure, SwitchingTheReferenceMidwayDoesNotBlowUp) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  auto other = test::simulateStandingSway(*model, 1.0, kDt, 0.3, 1.0);  // deeper, faster
+  std::vector<ReferenceFrame> frames(sway_->begin(), sway_->begin() + 700);
+  for (std::size_t k = 300; k < other.size(); ++k) {
+    other[k].time_s = frames.back().time_s + kDt;
+    frames.push_back(other[k]);
+  }
+  const RunSummary s = run(*model, frames);
+  EXPECT_LT(s.max_base_residual_n, 1e-8 * 70.0 * 9.81);
+  EXPECT_LT(s.max_joint_error, 0.3);
+  EXPECT_LT(s.max_base_position_error, 0.1);
+  EXPECT_EQ(s.status_union & (kStatusNonFinite | kStatusReseeded), 0u);
+}
+
+TEST_F(FilterOnHumanFigure, InvalidReferenceFramesAreFlaggedAndHeld) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  DynamicsFilter filter(*model, FilterOptions{});
+  filter.reset(sway_->front());
+  for (int k = 0; k < 50; ++k) filter.step((*sway_)[static_cast<std::size_t>(k)]);
+  ReferenceFrame bad = (*sway_)[50];
+  bad.q[10] = std::nan("");
+  const FilterOutput& out = filter.step(bad);
+  EXPECT_TRUE(out.status & kStatusReferenceInvalid);
+  EXPECT_TRUE(out.q.allFinite() && out.tau_J.allFinite());
+  ReferenceFrame wrong_size = (*sway_)[51];
+  wrong_size.v.resize(3);
+  EXPECT_TRUE(filter.step(wrong_size).status & kStatusReferenceInvalid);
+  EXPECT_FALSE(filter.step((*sway_)[52]).status & kStatusReferenceInvalid);
+}
+
+TEST(Filter, RejectsAnUnknownTaskBody) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  FilterOptions options;
+  options.task.body = "tail";
+  try {
+    DynamicsFilter filter(*model, options);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("\"tail\""), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace dynfilter

@@ -1,0 +1,105 @@
+// The simulator mode (Eq. 14) and the plastic impact.
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "dynfilter/core/constrained_dynamics.hpp"
+#include "dynfilter/core/dynamics_simulator.hpp"
+#include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
+#include "support/reference_motions.hpp"
+#include "support/test_support.hpp"
+
+namespace dynfilter {
+namespace {
+
+TEST(Simulator, FreeFlightIsReproducedByTheBackendsForwardDynamics) {
+  // Same integrator, accelerations from Eq. 14 (no contact) vs the engine's own forward
+  // dynamics: the two trajectories agree to rounding.
+  ModelOptions options;
+  options.environment.has_ground = false;
+  const auto robot = urdf::loadUrdfFile(test::testModelPath("floating_chain.urdf"));
+  auto model = test::makeModel("dart", robot, options);
+  auto reference = test::makeModel("dart", robot, options);
+  std::mt19937 rng(3);
+  Eigen::VectorXd q, v;
+  test::randomState(*model, rng, 1.0, q, v);
+  const double dt = 1e-3;
+  DynamicsSimulator sim(*model, ContactOptions{}, dt);
+  sim.reset(q, v);
+  Eigen::VectorXd q_ref = q, v_ref = v, vdot_ref(model->nv()), tau(model->nj());
+  for (int k = 0; k < 500; ++k) {
+    tau << 2.0 * std::sin(0.01 * k), -5.0, 0.3 * std::cos(0.02 * k);
+    sim.step(tau);
+    reference->setState(q_ref, v_ref);
+    reference->forwardDynamics(tau, vdot_ref);
+    EXPECT_LT((sim.vdot() - vdot_ref).cwiseAbs().maxCoeff(), 1e-9) << "step " << k;
+    v_ref += dt * vdot_ref;
+    integrateConfiguration(true, q_ref, v_ref, dt, q_ref);
+  }
+  EXPECT_LT((sim.q() - q_ref).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_GT((sim.q() - q).norm(), 0.5);  // it moved
+}
+
+TEST(Simulator, BoxRestsOnTheGroundWithItsWeightInTheContact) {
+  ModelOptions options;
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::testModelPath("floating_box.urdf")),
+                               options);
+  Eigen::VectorXd q(7);
+  q << 0, 0, 0.06, 1, 0, 0, 0;  // 3.5 cm above the ground
+  DynamicsSimulator sim(*model, ContactOptions{}, 1e-3);
+  sim.reset(q, Eigen::VectorXd::Zero(6));
+  bool impact = false;
+  for (int k = 0; k < 1000; ++k) impact |= (sim.step(Eigen::VectorXd(0)) & kStatusImpact) != 0;
+  EXPECT_TRUE(impact);
+  ASSERT_EQ(sim.numContacts(), 1);
+  EXPECT_EQ(sim.contacts()[0].kind, ContactKind::kFace);
+  EXPECT_NEAR(sim.contacts()[0].normal_force_n, 3.0 * 9.81, 1e-6);
+  EXPECT_NEAR(sim.q()[2], 0.025, 2e-4);  // resting on its face; fell ~1 mm/tick at impact
+  EXPECT_LT(sim.v().norm(), 1e-6);
+  // The engine's own simulator agrees on where it rests.
+  model->setState(q, Eigen::VectorXd::Zero(6));
+  for (int k = 0; k < 1000; ++k) model->simulateStep(Eigen::VectorXd(0), 1e-3);
+  EXPECT_NEAR(model->q()[2], sim.q()[2], 1e-3);
+}
+
+TEST(Simulator, StandingSwayKeepsBothFeetOnTheGroundAndSatisfiesEq14) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const auto frames = test::simulateStandingSway(*model, 1.0, 1e-3);
+  ASSERT_EQ(frames.size(), 1000u);
+  const double z0 = frames.front().q[2];
+  double lowest = 1e9;
+  for (const auto& f : frames) lowest = std::min(lowest, f.q[2]);
+  EXPECT_LT(lowest, z0 - 0.01);  // the squat really went down
+  EXPECT_GT(lowest, z0 - 0.2);
+  // Feet stayed where they were (bilateral face links).
+  model->setState(frames.front().q, frames.front().v);
+  const Eigen::Vector3d foot0 = model->bodyPose(model->info().findBody("l_foot")).translation();
+  model->setState(frames.back().q, frames.back().v);
+  const Eigen::Vector3d foot1 = model->bodyPose(model->info().findBody("l_foot")).translation();
+  EXPECT_LT((foot1 - foot0).norm(), 1e-3);
+}
+
+TEST(ConstrainedDynamics, PlasticImpactStopsTheConstrainedMotionAndLosesEnergy) {
+  std::mt19937 rng(8);
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  Eigen::VectorXd q, v;
+  test::randomState(*model, rng, 1.0, q, v);
+  model->setState(q, v);
+  const int nv = model->nv();
+  Eigen::MatrixXd A(nv, nv), H(6, nv);
+  model->massMatrix(A);
+  Matrix6Xd J(6, nv);
+  model->pointJacobian(model->info().findBody("r_foot"), Eigen::Vector3d(0.1, 0, -0.06), J);
+  H = J;
+  ConstrainedDynamics cd(nv, 6, 48);
+  Eigen::VectorXd v_plus = v, impulse(6);
+  ASSERT_TRUE(cd.plasticImpact(A, H, v_plus, impulse));
+  EXPECT_LT((H * v_plus).norm(), 1e-10);
+  EXPECT_LT(v_plus.dot(A * v_plus), v.dot(A * v));
+  // The change is the impulse through the contact: A (v⁺ − v) = Hᵀ λ.
+  EXPECT_LT((A * (v_plus - v) - H.transpose() * impulse).norm(), 1e-9);
+}
+
+}  // namespace
+}  // namespace dynfilter

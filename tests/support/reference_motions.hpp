@@ -1,0 +1,24 @@
+#pragma once
+// Reference motions for filter tests, made by the simulator mode (Eq. 14): physically
+// consistent by construction for the model that made them.
+
+#include <vector>
+
+#include "dynfilter/core/dynamics_model.hpp"
+#include "dynfilter/core/reference_frame.hpp"
+
+namespace dynfilter::test {
+
+/// Pelvis height at which the human figure's soles touch level ground (models/*.json).
+double humanFigureStandingHeight();
+
+/// The human figure stands on level ground (soles 0.5 mm in) and follows, under joint PD
+/// torques, a squat of up to 0.15 rad at the hips with swinging arms and a turning waist.
+/// Frames are the simulator's states at dt spacing with the acceleration of Eq. 14 at each.
+/// The simulation steps @p substeps times per frame: explicit joint PD on a floating
+/// figure is stiff (a waist torque spins the light pelvis), so steps of 0.2 ms or less.
+std::vector<ReferenceFrame> simulateStandingSway(IDynamicsModel& model, double seconds,
+                                                 double dt, double squat_amplitude = 0.15,
+                                                 double frequency_hz = 0.5, int substeps = 5);
+
+}  // namespace dynfilter::test
