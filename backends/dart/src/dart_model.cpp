@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <stdexcept>
 #include <unordered_map>
+#include <vector>
 
 #include <dart/collision/CollisionFilter.hpp>
 #include <dart/collision/CollisionGroup.hpp>
@@ -69,7 +70,8 @@ class RobotVersusEnvironmentFilter final : public dart::collision::CollisionFilt
 
 class DartModel final : public IDynamicsModel {
  public:
-  DartModel(const urdf::RobotDescription& robot, const ModelOptions& options)
+  DartModel(const urdf::RobotDescription& robot, const ModelOptions& options,
+            DartMassMatrix mass_matrix)
       : info_(makeInfo(robot, options.floating_base)),
         environment_(options.environment),
         robot_(buildRobotSkeleton(robot, options.floating_base)),
@@ -78,7 +80,11 @@ class DartModel final : public IDynamicsModel {
         v_(Eigen::VectorXd::Zero(info_.nv)),
         dart_q_(robot_.skeleton->getNumDofs()),
         dart_v_(robot_.skeleton->getNumDofs()),
-        dart_tau_(robot_.skeleton->getNumDofs()) {
+        dart_tau_(robot_.skeleton->getNumDofs()),
+        mass_matrix_(mass_matrix),
+        v_of_dof_(robot_.skeleton->getNumDofs(), -1),
+        inertia_times_J_(6, robot_.skeleton->getNumDofs()) {
+    for (int i = 0; i < info_.nv; ++i) v_of_dof_[static_cast<std::size_t>(robot_.dof_of_v[i])] = i;
     robot_.skeleton->setGravity(options.gravity_W);
     for (std::size_t k = 0; k < env_.skeleton->getNumBodyNodes(); ++k)
       env_object_[env_.skeleton->getBodyNode(k)] = env_.object_of_body[k];
@@ -129,30 +135,61 @@ class DartModel final : public IDynamicsModel {
 
   void pointJacobian(int body, const Eigen::Vector3d& p_BP,
                      Eigen::Ref<Matrix6Xd> J_out) const override {
-    // DART rows are [angular; linear]; ours are [linear; angular].
+    // From DART's cached world Jacobian of the body origin ([angular; linear], dependent
+    // coordinates only): shift to the point, ṗ_P = ṗ_O + ω × r, and scatter.
     const LinkFrame& f = robot_.links[body];
-    const auto J = robot_.skeleton->getWorldJacobian(f.node, f.X_NL * p_BP);
-    for (int i = 0; i < info_.nv; ++i) {
-      const int d = robot_.dof_of_v[i];
-      J_out.col(i).head<3>() = J.col(d).tail<3>();
-      J_out.col(i).tail<3>() = J.col(d).head<3>();
+    const auto& J_O = f.node->getWorldJacobian();
+    const auto& dofs = f.node->getDependentGenCoordIndices();
+    const Eigen::Vector3d r_W = f.node->getWorldTransform().linear() * (f.X_NL * p_BP);
+    J_out.setZero();
+    for (std::size_t k = 0; k < dofs.size(); ++k) {
+      const int i = v_of_dof_[dofs[k]];
+      const Eigen::Vector3d omega = J_O.col(static_cast<Eigen::Index>(k)).head<3>();
+      J_out.col(i).head<3>() = J_O.col(static_cast<Eigen::Index>(k)).tail<3>() + omega.cross(r_W);
+      J_out.col(i).tail<3>() = omega;
     }
   }
 
   Vector6d pointJacobianDotTimesV(int body, const Eigen::Vector3d& p_BP) const override {
+    // The skeleton's accelerations are kept at zero, so DART's classical point
+    // acceleration is exactly the drift J̇·v.
     const LinkFrame& f = robot_.links[body];
-    const auto Jdot = robot_.skeleton->getJacobianClassicDeriv(f.node, f.X_NL * p_BP, Frame::World());
-    const Eigen::Matrix<double, 6, 1> a = Jdot * dart_v_;  // [angular; linear]
+    const Eigen::Vector3d p_N = f.X_NL * p_BP;
     Vector6d out;
-    out.head<3>() = a.tail<3>();
-    out.tail<3>() = a.head<3>();
+    out.head<3>() = f.node->getLinearAcceleration(p_N, Frame::World(), Frame::World());
+    out.tail<3>() = f.node->getAngularAcceleration(Frame::World(), Frame::World());
     return out;
   }
 
   void massMatrix(Eigen::Ref<Eigen::MatrixXd> A_out) const override {
-    const Eigen::MatrixXd& M = robot_.skeleton->getMassMatrix();
-    for (int j = 0; j < info_.nv; ++j)
-      for (int i = 0; i < info_.nv; ++i) A_out(i, j) = M(robot_.dof_of_v[i], robot_.dof_of_v[j]);
+    if (mass_matrix_ == DartMassMatrix::kSkeleton) {
+      const Eigen::MatrixXd& M = robot_.skeleton->getMassMatrix();
+      for (int j = 0; j < info_.nv; ++j)
+        for (int i = 0; i < info_.nv; ++i)
+          A_out(i, j) = M(robot_.dof_of_v[i], robot_.dof_of_v[j]);
+      return;
+    }
+    // A = Σ_k J_kᵀ M_k J_k over bodies, with DART's cached body Jacobians and spatial
+    // inertias (both in the body frame): no allocation, ~10× faster than
+    // Skeleton::getMassMatrix on the human figure.
+    A_out.setZero();
+    for (std::size_t k = 0; k < robot_.skeleton->getNumBodyNodes(); ++k) {
+      const auto* node = robot_.skeleton->getBodyNode(k);
+      const auto& J = node->getJacobian();
+      const auto& dofs = node->getDependentGenCoordIndices();
+      const Eigen::Index d = J.cols();
+      auto MJ = inertia_times_J_.leftCols(d);
+      MJ.noalias() = node->getSpatialInertia() * J;
+      for (Eigen::Index b = 0; b < d; ++b) {
+        const int col = v_of_dof_[dofs[static_cast<std::size_t>(b)]];
+        for (Eigen::Index a = 0; a <= b; ++a) {
+          const int row = v_of_dof_[dofs[static_cast<std::size_t>(a)]];
+          const double value = J.col(a).dot(MJ.col(b));
+          A_out(row, col) += value;
+          if (row != col) A_out(col, row) += value;
+        }
+      }
+    }
   }
 
   void bias(Eigen::Ref<Eigen::VectorXd> b_out) const override {
@@ -166,6 +203,7 @@ class DartModel final : public IDynamicsModel {
     robot_.skeleton->computeForwardDynamics();
     const Eigen::VectorXd& ddq = robot_.skeleton->getAccelerations();
     for (int i = 0; i < info_.nv; ++i) vdot_out[i] = ddq[robot_.dof_of_v[i]];
+    robot_.skeleton->resetAccelerations();  // pointJacobianDotTimesV relies on zero
   }
 
   void detectContacts(ContactList& out) const override {
@@ -201,6 +239,7 @@ class DartModel final : public IDynamicsModel {
     if (world_->getTimeStep() != dt_s) world_->setTimeStep(dt_s);
     setJointForces(tau_J);
     world_->step();
+    robot_.skeleton->resetAccelerations();
     pullState();
   }
 
@@ -258,21 +297,26 @@ class DartModel final : public IDynamicsModel {
   Eigen::VectorXd q_, v_;
   Eigen::VectorXd dart_q_, dart_v_;
   mutable Eigen::VectorXd dart_tau_;
+  DartMassMatrix mass_matrix_;
+  std::vector<int> v_of_dof_;            // inverse of dof_of_v
+  mutable Matrix6Xd inertia_times_J_;    // scratch, 6 × ndofs
 };
 
 }  // namespace
 
 std::unique_ptr<IDynamicsModel> makeDartModel(const urdf::RobotDescription& robot,
-                                              const ModelOptions& options) {
+                                              const ModelOptions& options,
+                                              DartMassMatrix mass_matrix) {
   urdf::validateForDynamics(robot, options.floating_base);
   options.environment.validate();
   if (!options.gravity_W.allFinite()) throw std::invalid_argument("gravity is not finite");
-  return std::make_unique<DartModel>(robot, options);
+  return std::make_unique<DartModel>(robot, options, mass_matrix);
 }
 
 std::unique_ptr<IDynamicsModel> loadDartModel(const std::string& urdf_path,
-                                              const ModelOptions& options) {
-  return makeDartModel(urdf::loadUrdfFile(urdf_path), options);
+                                              const ModelOptions& options,
+                                              DartMassMatrix mass_matrix) {
+  return makeDartModel(urdf::loadUrdfFile(urdf_path), options, mass_matrix);
 }
 
 }  // namespace dynfilter::dart_backend
