@@ -132,3 +132,38 @@ TEST(LieGroup, FixedBaseIsVectorSpace) {
 
 }  // namespace
 }  // namespace dynfilter
+
+#include "dynfilter/core/reference_frame.hpp"
+
+namespace dynfilter {
+namespace {
+
+TEST(ReferenceInterpolation, MidpointOfABaseScrewAndLinearJoints) {
+  ReferenceFrame a(8, 7), b(8, 7), out(8, 7);
+  a.time_s = 1.0;
+  b.time_s = 1.5;
+  a.q << 0, 0, 1, 1, 0, 0, 0, 0.2;
+  // b: a quarter turn about z with a translation along x.
+  const Eigen::Quaterniond yaw(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));
+  b.q << 1, 0, 1, yaw.w(), yaw.x(), yaw.y(), yaw.z(), 0.6;
+  a.v.setConstant(1.0);
+  b.v.setConstant(3.0);
+  interpolateReference(true, a, b, 1.25, out);
+  EXPECT_DOUBLE_EQ(out.time_s, 1.25);
+  EXPECT_NEAR(out.q[7], 0.4, 1e-15);
+  EXPECT_NEAR(out.v[2], 2.0, 1e-15);
+  // Half the rotation (45°), and the midpoint of the screw motion.
+  const Eigen::Isometry3d X = basePoseFromConfiguration(out.q);
+  EXPECT_NEAR(Eigen::AngleAxisd(X.linear()).angle(), M_PI / 4, 1e-12);
+  const Eigen::Isometry3d X_a = basePoseFromConfiguration(a.q);
+  const Eigen::Isometry3d expected =
+      X_a * expSE3(0.5 * logSE3(X_a.inverse() * basePoseFromConfiguration(b.q)));
+  EXPECT_LT((X.matrix() - expected.matrix()).norm(), 1e-12);
+  EXPECT_GT(std::abs(X.translation().y()), 0.1);  // a screw, not a straight line
+  // Clamped outside [a, b].
+  interpolateReference(true, a, b, 9.0, out);
+  EXPECT_LT((out.q - b.q).norm(), 1e-12);
+}
+
+}  // namespace
+}  // namespace dynfilter

@@ -18,4 +18,10 @@ struct ReferenceFrame {
       : q(Eigen::VectorXd::Zero(nq)), v(Eigen::VectorXd::Zero(nv)), vdot(Eigen::VectorXd::Zero(nv)) {}
 };
 
+/// The reference between two frames at time @p t_s (clamped to [a.time_s, b.time_s]):
+/// the base moves along the SE(3) geodesic from a to b, everything else linearly.
+/// @p out must already have the sizes of @p a (no allocation).
+void interpolateReference(bool floating_base, const ReferenceFrame& a, const ReferenceFrame& b,
+                          double t_s, ReferenceFrame& out);
+
 }  // namespace dynfilter
