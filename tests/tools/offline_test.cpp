@@ -1,0 +1,114 @@
+// dynfilter-offline as a user runs it: real files in, real files out, exit codes.
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "support/test_support.hpp"
+
+namespace {
+
+struct ProcessResult {
+  int exit_code;
+  std::string stderr_text;
+};
+
+ProcessResult runOffline(const std::string& args) {
+  const std::string err = testing::TempDir() + "/offline_stderr.txt";
+  const std::string cmd = std::string(DYNFILTER_OFFLINE_BIN) + " " + args + " 2> " + err;
+  const int status = std::system(cmd.c_str());
+  std::ifstream in(err);
+  std::stringstream text;
+  text << in.rdbuf();
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+}
+
+std::vector<std::vector<std::string>> readCsv(const std::string& path) {
+  std::vector<std::vector<std::string>> rows;
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<std::string> fields;
+    std::stringstream ss(line);
+    std::string f;
+    while (std::getline(ss, f, ',')) fields.push_back(f);
+    rows.push_back(fields);
+  }
+  return rows;
+}
+
+int column(const std::vector<std::string>& header, const std::string& name) {
+  for (std::size_t i = 0; i < header.size(); ++i)
+    if (header[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+bool exists(const std::string& path) { return std::ifstream(path).good(); }
+
+const std::string kSquat = dynfilter::test::sourcePath("data/squat_reference.csv");
+
+TEST(Offline, FiltersTheSquatIntoAConsistentMotion) {
+  const std::string out = testing::TempDir() + "/squat_out.csv";
+  std::remove(out.c_str());
+  const ProcessResult run = runOffline(kSquat + " -o " + out + " --no-progress");
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  EXPECT_NE(run.stderr_text.find("max Eq. 12 residual"), std::string::npos) << run.stderr_text;
+  EXPECT_NE(run.stderr_text.find("tracking RMS"), std::string::npos);
+  const auto rows = readCsv(out);
+  const auto reference = readCsv(kSquat);
+  // One row per reference frame (the reference has 2 comment lines and a header).
+  ASSERT_EQ(rows.size(), reference.size() - 2);
+  const int residual = column(rows[0], "base_residual_n");
+  const int time = column(rows[0], "time");
+  ASSERT_GE(residual, 0);
+  for (std::size_t r = 1; r < rows.size(); ++r) {
+    EXPECT_LT(std::stod(rows[r][static_cast<std::size_t>(residual)]), 1e-8 * 70.0 * 9.81);
+    EXPECT_NEAR(std::stod(rows[r][static_cast<std::size_t>(time)]),
+                std::stod(reference[r + 2][0]), 1e-9);
+  }
+  const auto contacts = readCsv(out.substr(0, out.size() - 4) + ".contacts.csv");
+  ASSERT_GT(contacts.size(), 1u);
+  const int fz = column(contacts[0], "normal_force_n");
+  for (std::size_t r = 1; r < contacts.size(); ++r)
+    EXPECT_GT(std::stod(contacts[r][static_cast<std::size_t>(fz)]), 0.0);
+}
+
+TEST(Offline, ABrokenReferenceIsRejectedAndNothingIsWritten) {
+  // Copy the squat and put a NaN into line 10 (a data line), column 12.
+  std::ifstream in(kSquat);
+  const std::string bad = testing::TempDir() + "/bad_reference.csv";
+  std::ofstream outfile(bad);
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (n == 10) {
+      std::vector<std::string> f;
+      std::stringstream ss(line);
+      std::string field;
+      while (std::getline(ss, field, ',')) f.push_back(field);
+      f[11] = "nan";
+      line.clear();
+      for (std::size_t i = 0; i < f.size(); ++i) line += (i ? "," : "") + f[i];
+    }
+    outfile << line << "\n";
+  }
+  outfile.close();
+  const std::string out = testing::TempDir() + "/never_written.csv";
+  std::remove(out.c_str());
+  const ProcessResult run = runOffline(bad + " -o " + out);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.stderr_text.find("bad_reference.csv:10:12"), std::string::npos) << run.stderr_text;
+  EXPECT_FALSE(exists(out));
+  EXPECT_FALSE(exists(testing::TempDir() + "/never_written.contacts.csv"));
+}
+
+TEST(Offline, AnUnknownModelFileIsAClearError) {
+  const ProcessResult run = runOffline(kSquat + " -o /tmp/x.csv --model /nonexistent/robot.urdf");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.stderr_text.find("/nonexistent/robot.urdf"), std::string::npos);
+}
+
+}  // namespace

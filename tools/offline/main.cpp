@@ -1,0 +1,159 @@
+// dynfilter-offline: a reference motion file in, a physically consistent motion out.
+//
+//   dynfilter-offline reference.csv -o filtered.csv [--model robot.urdf] [--config cfg.yaml]
+//                     [--tick-hz 500] [--slope-deg 5] [--friction 0.8] [--every-tick]
+//
+// The filter ticks at about --tick-hz (default 500 Hz; the config's dt_s is the real-time
+// process's tick and is not used here) against the reference interpolated between its
+// frames; for a uniformly sampled reference the tick is a whole fraction of the frame
+// period. One output row per reference frame (or per tick with --every-tick),
+// plus <output stem>.contacts.csv. Nothing is written unless the whole run succeeds.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <string>
+
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+
+#include "dynfilter/core/dynamics_filter.hpp"
+#include "dynfilter/core/errors.hpp"
+#include "dynfilter/dart/dart_model.hpp"
+#include "dynfilter/io/config.hpp"
+#include "dynfilter/io/filtered_motion.hpp"
+#include "dynfilter/io/reference_motion.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
+#include "run_summary.hpp"
+
+namespace {
+
+using namespace dynfilter;
+
+class ProgressBar {
+ public:
+  explicit ProgressBar(bool enabled) : enabled_(enabled) {}
+  void update(double fraction) {
+    if (!enabled_) return;
+    const int percent = static_cast<int>(100.0 * fraction);
+    if (percent == last_) return;
+    last_ = percent;
+    const int width = 40, filled = width * percent / 100;
+    std::fprintf(stderr, "\r[%.*s%*s] %3d %%", filled, "########################################",
+                 width - filled, "", percent);
+    std::fflush(stderr);
+  }
+  void done() {
+    if (enabled_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  bool enabled_;
+  int last_ = -1;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Filter a reference motion into a physically consistent one (Yamane & Nakamura)."};
+  std::string reference_path, output_path, model_path = DYNFILTER_DEFAULT_MODEL, config_path;
+  std::string backend = "dart";
+  double tick_hz = 500.0, slope_deg = NAN, heading_deg = 0.0, friction = NAN;
+  bool every_tick = false, quiet = false, no_progress = false;
+  app.add_option("reference", reference_path, "reference motion CSV (see README)")->required();
+  app.add_option("-o,--output", output_path, "filtered motion CSV to write")->required();
+  app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
+  app.add_option("-c,--config", config_path, "YAML configuration (tools/config/default.yaml)");
+  app.add_option("--backend", backend, "dynamics backend")->check(CLI::IsMember({"dart"}));
+  app.add_option("--tick-hz", tick_hz, "filter rate (Hz)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--slope-deg", slope_deg, "ground slope, overrides the config (deg)");
+  app.add_option("--slope-heading-deg", heading_deg, "direction the ground descends (deg)");
+  app.add_option("--friction", friction, "ground friction coefficient, overrides the config");
+  app.add_flag("--every-tick", every_tick, "write every filter tick, not only reference frames");
+  app.add_flag("--no-progress", no_progress, "no progress bar");
+  app.add_flag("-q,--quiet", quiet, "no summary");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    io::FilterConfig config = config_path.empty() ? io::FilterConfig{} : io::loadFilterConfig(config_path);
+    if (!std::isnan(slope_deg))
+      config.environment.ground = GroundPlane::sloped(slope_deg * M_PI / 180.0,
+                                                      heading_deg * M_PI / 180.0, 0.0,
+                                                      config.environment.ground.friction);
+    if (!std::isnan(friction)) config.environment.ground.friction = friction;
+    config.filter.validate();
+
+    ModelOptions model_options;
+    model_options.environment = config.environment;
+    const auto robot = urdf::loadUrdfFile(model_path);
+    for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    auto model = dart_backend::makeDartModel(robot, model_options);
+    const io::ReferenceMotion motion = io::readReferenceMotion(reference_path, model->info());
+
+    // Uniformly sampled references (the usual mocap case) are filtered with a whole number
+    // of ticks per frame, so that every frame time is a tick; otherwise at --tick-hz with
+    // each frame written by the tick nearest to it.
+    const auto& frames = motion.frames;
+    const double t0 = frames.front().time_s, t_end = frames.back().time_s;
+    const double period = (t_end - t0) / static_cast<double>(frames.size() - 1);
+    bool uniform = true;
+    for (std::size_t i = 1; i < frames.size(); ++i)
+      uniform &= std::abs(frames[i].time_s - frames[i - 1].time_s - period) <= 1e-6 * period;
+    const long substeps = uniform ? std::max(1L, std::lround(period * tick_hz)) : 0;
+    config.filter.dt_s = uniform ? period / static_cast<double>(substeps) : 1.0 / tick_hz;
+    const double dt = config.filter.dt_s;
+    const long ticks = uniform ? static_cast<long>(frames.size() - 1) * substeps + 1
+                               : std::lround(std::floor((t_end - t0) / dt + 1e-9)) + 1;
+
+    DynamicsFilter filter(*model, config.filter);
+    io::FilteredMotionWriter writer(output_path, model->info());
+    tools::RunSummary summary(model->info());
+    ProgressBar progress(!no_progress && !quiet && isatty(STDERR_FILENO));
+    const auto wall0 = std::chrono::steady_clock::now();
+    filter.reset(frames.front());
+    ReferenceFrame ref(model->nq(), model->nv());
+    std::size_t segment = 0, next_frame = 0;
+    int written = 0;
+    for (long k = 0; k < ticks; ++k) {
+      const double t = uniform ? frames[static_cast<std::size_t>(k / substeps)].time_s +
+                                     static_cast<double>(k % substeps) * dt
+                               : t0 + static_cast<double>(k) * dt;
+      while (segment + 2 < frames.size() && frames[segment + 1].time_s <= t) ++segment;
+      interpolateReference(model->info().floating_base, frames[segment], frames[segment + 1], t,
+                           ref);
+      const FilterOutput& out = filter.step(ref);
+      summary.add(out);
+      bool write = every_tick || (uniform && k % substeps == 0);
+      if (!uniform)
+        while (next_frame < frames.size() && frames[next_frame].time_s < t + 0.5 * dt) {
+          write = true;
+          ++next_frame;
+        }
+      if (write) {
+        writer.append(out);
+        ++written;
+      }
+      progress.update(static_cast<double>(k + 1) / static_cast<double>(ticks));
+    }
+    progress.done();
+    writer.commit();
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    if (!quiet) {
+      std::fprintf(stderr, "wrote %s and %s\n", writer.path().c_str(), writer.contactsPath().c_str());
+      summary.print(stderr, written, t_end - t0, wall);
+    }
+    return 0;
+  } catch (const io::InputError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const ModelError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}
