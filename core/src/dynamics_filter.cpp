@@ -133,6 +133,10 @@ void DynamicsFilter::desiredAcceleration(const ReferenceFrame& reference) {
                              task.kp_linear * error.head<3>();
   rddot_desired.tail<3>() += task.kd_angular * (task_rdot_ref_.tail<3>() - rdot.tail<3>()) +
                              task.kp_angular * error.tail<3>();
+  if (task.as_constraint_rows) {  // Eq. 16: J_P v̇ = r̈_Pᵈ − J̇_P v as rows of the solve
+    task_rhs_ = rddot_desired - drift;
+    return;
+  }
   const Vector6d rddot_d0 = J_P_ * vdot_desired_ + drift;
   JW_ = J_P_ * task_weight_inv_.asDiagonal();
   const Matrix6d S = JW_ * J_P_.transpose();
@@ -199,7 +203,18 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
 
   // Eq. 21–23.
   const Clock::time_point t_solve = Clock::now();
-  status |= solver_.solve(A_, b_, H_C, u_C, vdot_desired_, vdot_solved_, tau_C, tau_J_solved_);
+  const bool task_rows = task_body_ >= 0 && options_.task.as_constraint_rows;
+  std::uint32_t solve_status = kStatusRankDeficient;
+  if (task_rows)
+    solve_status = solver_.solve(A_, b_, H_C, u_C, J_P_, task_rhs_, vdot_desired_, vdot_solved_,
+                                 tau_C, tau_J_solved_);
+  // Task rows that depend on the physics rows (e.g. the chest cannot rise while the knees
+  // are straight) are dropped for the tick: Eq. 12 itself must hold exactly.
+  if (solve_status & kStatusRankDeficient) {
+    solve_status = task_rows ? std::uint32_t{kStatusRankDeficient} : std::uint32_t{kStatusOk};
+    solve_status |= solver_.solve(A_, b_, H_C, u_C, vdot_desired_, vdot_solved_, tau_C, tau_J_solved_);
+  }
+  status |= solve_status;
   out_.solve_time_s = secondsSince(t_solve);
 
   const bool finite = vdot_solved_.allFinite() && tau_J_solved_.allFinite() && tau_C.allFinite();

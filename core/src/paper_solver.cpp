@@ -7,11 +7,16 @@
 namespace dynfilter {
 namespace {
 
-// Cholesky in place; on failure adds a ridge of relative size 1e-10 (then 1e-8, ...).
+// Cholesky in place; returns false when S is numerically singular (condition number
+// beyond ~1e10), after regularising it with a ridge of relative size 1e-10 (then 1e-8, ...)
+// so that the caller still gets a bounded answer.
 bool choleskyInPlace(Eigen::Ref<Eigen::MatrixXd> S, Eigen::Ref<Eigen::MatrixXd> backup) {
   backup = S;
   Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(S);
-  if (llt.info() == Eigen::Success) return true;
+  if (llt.info() == Eigen::Success) {
+    const auto diag = S.diagonal().cwiseAbs();
+    if (diag.size() == 0 || diag.minCoeff() > 1e-5 * diag.maxCoeff()) return true;
+  }
   const double scale = std::max(1e-300, backup.diagonal().cwiseAbs().maxCoeff());
   for (double ridge = 1e-10; ridge < 1.0; ridge *= 100.0) {
     S = backup;
@@ -33,7 +38,7 @@ void choleskySolve(const Eigen::Ref<const Eigen::MatrixXd>& S, Vec&& x) {
 
 PaperSolver::PaperSolver(int nv, int nb, int max_rows, const PaperSolverOptions& options)
     : nv_(nv), nb_(nb), max_rows_(max_rows), options_(options) {
-  const int m = nb + max_rows;
+  const int m = nb + max_rows + kMaxTaskRows;
   Cv_.setZero(m, nv);
   G_.setZero(m, m);
   Ginv_.setZero(m, m);
@@ -45,6 +50,7 @@ PaperSolver::PaperSolver(int nv, int nb, int max_rows, const PaperSolverOptions&
   for (Eigen::VectorXd* vec : {&d_, &lambda_, &mu_, &t_}) vec->setZero(m);
   for (Eigen::VectorXd* vec : {&e_, &w_, &yv_, &zv_}) vec->setZero(nv);
   yc_.setZero(max_rows);
+  empty_task_.setZero(0, nv);
   zc_.setZero(max_rows);
 }
 
@@ -56,19 +62,36 @@ std::uint32_t PaperSolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
                                  Eigen::Ref<Eigen::VectorXd> vdot,
                                  Eigen::Ref<Eigen::VectorXd> tau_C,
                                  Eigen::Ref<Eigen::VectorXd> tau_J) {
+  return solve(A, b, H_C, u_C, empty_task_, empty_task_rhs_, vdot_desired, vdot, tau_C, tau_J);
+}
+
+std::uint32_t PaperSolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                                 const Eigen::Ref<const Eigen::VectorXd>& b,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+                                 const Eigen::Ref<const Eigen::VectorXd>& u_C,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& J_task,
+                                 const Eigen::Ref<const Eigen::VectorXd>& rhs_task,
+                                 const Eigen::Ref<const Eigen::VectorXd>& vdot_desired,
+                                 Eigen::Ref<Eigen::VectorXd> vdot,
+                                 Eigen::Ref<Eigen::VectorXd> tau_C,
+                                 Eigen::Ref<Eigen::VectorXd> tau_J) {
   std::uint32_t status = kStatusOk;
   const int nc = static_cast<int>(H_C.rows());
-  const int nb = nb_, nv = nv_, nj = nv - nb, m = nb + nc;
+  const int nt = static_cast<int>(J_task.rows());
+  const int nb = nb_, nv = nv_, nj = nv - nb, m = nb + nc + nt;
   const double wa = options_.accel_weight, wf = options_.force_weight;
   const double beta = (1.0 - wa / wf) / (wa * wa);
 
-  // C_v = [A_b; H_C] and d = [−b_b; u_C]. C_c = [−H_bᵀ; 0] is used through H_b only.
+  // C_v = [A_b; H_C; J_task] and d = [−b_b; u_C; rhs_task]. C_c = [−H_bᵀ; 0; 0] is used
+  // through H_b only.
   auto Cv = Cv_.topRows(m);
   Cv.topRows(nb) = A.topRows(nb);
-  Cv.bottomRows(nc) = H_C;
+  Cv.middleRows(nb, nc) = H_C;
+  Cv.bottomRows(nt) = J_task;
   auto d = d_.head(m);
   d.head(nb) = -b.head(nb);
-  d.tail(nc) = u_C;
+  d.segment(nb, nc) = u_C;
+  d.tail(nt) = rhs_task;
   const auto Hb = H_C.leftCols(nb);
   HbTHb_.noalias() = Hb.transpose() * Hb;
 

@@ -172,3 +172,63 @@ TEST(Filter, RejectsAnUnknownTaskBody) {
 
 }  // namespace
 }  // namespace dynfilter
+
+namespace dynfilter {
+namespace {
+
+TEST(FilterTaskRows, Eq16KeepsTheChestOnItsReferenceAndEq12Holds) {
+  // Reference: the standing sway with the whole figure 1 cm to the side. Feet stay where
+  // they are; with P as Eq. 16 rows the chest follows its reference acceleration exactly,
+  // so the chest error decays instead of being traded off.
+  // The run starts 0.5 s into the squat: with straight knees the chest cannot rise, the
+  // task rows are then dependent and dropped tick by tick (tested elsewhere).
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  auto frames = test::simulateStandingSway(*model, 1.5, 1e-3);
+  frames.erase(frames.begin(), frames.begin() + 500);
+  FilterOptions options;
+  options.task.as_constraint_rows = true;
+  DynamicsFilter filter(*model, options);
+  filter.reset(frames.front());
+  double first_error = 0.0, last_error = 0.0, max_residual = 0.0;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    ReferenceFrame ref = frames[k];
+    ref.q[1] += 0.01;
+    const FilterOutput& out = filter.step(ref);
+    if (k == 5) first_error = out.task_error.head<3>().norm();
+    last_error = out.task_error.head<3>().norm();
+    max_residual = std::max(max_residual, out.base_residual_n);
+  }
+  EXPECT_GT(first_error, 0.005);
+  EXPECT_LT(last_error, 0.2 * first_error);
+  EXPECT_LT(max_residual, 1e-8 * 70.0 * 9.81);
+}
+
+}  // namespace
+}  // namespace dynfilter
+
+namespace dynfilter {
+namespace {
+
+TEST(FilterTaskRows, DependentTaskRowsAreDroppedAndEq12StillHolds) {
+  // Straight knees at the start of the sway: the chest's vertical row depends on the
+  // contact rows. The tick flags it, solves Eq. 12 without the task rows, stays exact.
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const auto frames = test::simulateStandingSway(*model, 0.05, 1e-3);
+  FilterOptions options;
+  options.task.as_constraint_rows = true;
+  DynamicsFilter filter(*model, options);
+  filter.reset(frames.front());
+  std::uint32_t seen = 0;
+  for (const auto& f : frames) {
+    const FilterOutput& out = filter.step(f);
+    seen |= out.status;
+    EXPECT_LT(out.base_residual_n, 1e-8 * 70.0 * 9.81);
+    EXPECT_TRUE(out.vdot.allFinite());
+    EXPECT_LT(out.vdot.cwiseAbs().maxCoeff(), 1e3);  // near-singular rows still pull hard
+  }
+  EXPECT_TRUE(seen & kStatusRankDeficient);
+  EXPECT_FALSE(seen & kStatusReseeded);
+}
+
+}  // namespace
+}  // namespace dynfilter

@@ -82,6 +82,30 @@ TEST(PaperSolver, MatchesTheLiteralDenseFormulationOnRandomFloatingBaseInstances
   }
 }
 
+TEST(PaperSolver, WithTaskRowsMatchesTheLiteralEq16) {
+  std::mt19937 rng(404);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int nv = 14 + trial % 20, nc = (trial * 3) % 13, nt = 6;
+    Instance in = randomInstance(rng, nv, nc);
+    Eigen::MatrixXd J_task(nt, nv);
+    Eigen::VectorXd rhs(nt);
+    for (int i = 0; i < nt; ++i) {
+      rhs[i] = g(rng);
+      for (int j = 0; j < nv; ++j) J_task(i, j) = g(rng);
+    }
+    PaperSolverOptions options;
+    PaperSolver solver(nv, 6, 48, options);
+    Eigen::VectorXd vdot(nv), tau_C(nc), tau_J(nv - 6);
+    solver.solve(in.A, in.b, in.H_C, in.u_C, J_task, rhs, in.vdot_desired, vdot, tau_C, tau_J);
+    const auto literal = test::literalPaperSolve(in.A, in.b, in.H_C, in.u_C, 6, in.vdot_desired,
+                                                 options, J_task, rhs);
+    EXPECT_LT(relative(vdot, literal.vdot), 1e-9);
+    EXPECT_LT(relative(tau_J, literal.tau_J), 1e-9);
+    EXPECT_LT((J_task * vdot - rhs).cwiseAbs().maxCoeff(), 1e-9) << "task rows hold";
+  }
+}
+
 TEST(PaperSolver, MatchesTheLiteralDenseFormulationForAFixedBase) {
   std::mt19937 rng(99);
   for (int nc : {0, 2, 5}) expectMatchesLiteral(randomInstance(rng, 7, nc), 0, PaperSolverOptions{});

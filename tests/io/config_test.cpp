@@ -32,6 +32,7 @@ void expectSameFilterOptions(const FilterOptions& a, const FilterOptions& b) {
   EXPECT_EQ(a.task.kp_angular, b.task.kp_angular);
   EXPECT_EQ(a.task.kd_angular, b.task.kd_angular);
   EXPECT_EQ(a.task.joint_weight, b.task.joint_weight);
+  EXPECT_EQ(a.task.as_constraint_rows, b.task.as_constraint_rows);
   EXPECT_EQ(a.contacts.max_links, b.contacts.max_links);
   EXPECT_EQ(a.contacts.stabilization_kp, b.contacts.stabilization_kp);
   EXPECT_EQ(a.contacts.stabilization_kd, b.contacts.stabilization_kd);
@@ -40,6 +41,7 @@ void expectSameFilterOptions(const FilterOptions& a, const FilterOptions& b) {
   EXPECT_EQ(a.contacts.release_ticks, b.contacts.release_ticks);
   EXPECT_EQ(a.contacts.reengage_depth_m, b.contacts.reengage_depth_m);
   EXPECT_EQ(a.contacts.plastic_impact, b.contacts.plastic_impact);
+  EXPECT_EQ(a.contacts.initial_penetration_tolerance_m, b.contacts.initial_penetration_tolerance_m);
   EXPECT_EQ(a.solver.accel_weight, b.solver.accel_weight);
   EXPECT_EQ(a.solver.force_weight, b.solver.force_weight);
   EXPECT_EQ(a.solver.sr_damping, b.solver.sr_damping);
@@ -88,6 +90,7 @@ TEST(ConfigFile, ShippedDefaultFileListsEveryKeyOnceWithAComment) {
       {"base_angular_kp", 1}, {"base_angular_kd", 1}, {"joint_kp", 1}, {"joint_kd", 1},
       {"task", 1}, {"enabled", 1}, {"body", 1}, {"p_BP", 1}, {"kp_linear", 1},
       {"kd_linear", 1}, {"kp_angular", 1}, {"kd_angular", 1}, {"joint_weight", 1},
+      {"as_constraint_rows", 1}, {"initial_penetration_tolerance_m", 1},
       {"contacts", 1}, {"max_links", 1}, {"stabilization_kp", 1}, {"stabilization_kd", 1},
       {"merge_distance_m", 1}, {"release_force_n", 1}, {"release_ticks", 1},
       {"reengage_depth_m", 1}, {"plastic_impact", 1}, {"solver", 1}, {"accel_weight", 1},

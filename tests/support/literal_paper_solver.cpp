@@ -7,20 +7,24 @@ namespace dynfilter::test {
 LiteralSolution literalPaperSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                                   const Eigen::MatrixXd& H_C, const Eigen::VectorXd& u_C, int nb,
                                   const Eigen::VectorXd& vdot_desired,
-                                  const PaperSolverOptions& options) {
+                                  const PaperSolverOptions& options,
+                                  const Eigen::MatrixXd& J_task,
+                                  const Eigen::VectorXd& rhs_task) {
   const int nv = static_cast<int>(A.rows());
   const int nc = static_cast<int>(H_C.rows());
   const int nj = nv - nb;
   const int nx = nv + nc + nj;
-  const int nw = nv + nc;
-  // W = [A, −H_Cᵀ, −H_Jᵀ; H_C, 0, 0], H_J = [0 | I]
+  const int nt = static_cast<int>(rhs_task.size());
+  const int nw = nv + nc + nt;
+  // W = [A, −H_Cᵀ, −H_Jᵀ; H_C, 0, 0; J_task, 0, 0], H_J = [0 | I]
   Eigen::MatrixXd W = Eigen::MatrixXd::Zero(nw, nx);
   W.topLeftCorner(nv, nv) = A;
   W.block(0, nv, nv, nc) = -H_C.transpose();
   W.block(nb, nv + nc, nj, nj) = -Eigen::MatrixXd::Identity(nj, nj);
-  W.bottomLeftCorner(nc, nv) = H_C;
+  W.block(nv, 0, nc, nv) = H_C;
+  if (nt > 0) W.bottomLeftCorner(nt, nv) = J_task;
   Eigen::VectorXd u(nw);
-  u << -b, u_C;
+  u << -b, u_C, rhs_task;
   Eigen::VectorXd q_diag = Eigen::VectorXd::Zero(nx);
   q_diag.head(nv).setConstant(options.accel_weight);
   q_diag.segment(nv, nc).setConstant(options.force_weight);

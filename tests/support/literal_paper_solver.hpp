@@ -15,9 +15,12 @@ struct LiteralSolution {
   Eigen::VectorXd vdot, tau_C, tau_J;
 };
 
+/// Eq. 12, or Eq. 16 when task rows J_task v̇ = rhs_task are given.
 LiteralSolution literalPaperSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                                   const Eigen::MatrixXd& H_C, const Eigen::VectorXd& u_C, int nb,
                                   const Eigen::VectorXd& vdot_desired,
-                                  const PaperSolverOptions& options);
+                                  const PaperSolverOptions& options,
+                                  const Eigen::MatrixXd& J_task = Eigen::MatrixXd(),
+                                  const Eigen::VectorXd& rhs_task = Eigen::VectorXd());
 
 }  // namespace dynfilter::test

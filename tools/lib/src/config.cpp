@@ -140,7 +140,7 @@ class Parser {
   void readTask(const Entry& e, TaskPointOptions& t) {
     readMap(e,
             {"enabled", "body", "p_BP", "kp_linear", "kd_linear", "kp_angular", "kd_angular",
-             "joint_weight"},
+             "as_constraint_rows", "joint_weight"},
             [&](const std::string& k, const Entry& v) {
               if (k == "enabled") t.enabled = boolean(v);
               if (k == "body") t.body = text(v);
@@ -149,6 +149,7 @@ class Parser {
               if (k == "kd_linear") t.kd_linear = number(v);
               if (k == "kp_angular") t.kp_angular = number(v);
               if (k == "kd_angular") t.kd_angular = number(v);
+              if (k == "as_constraint_rows") t.as_constraint_rows = boolean(v);
               if (k == "joint_weight") t.joint_weight = number(v);
             });
   }
@@ -156,7 +157,8 @@ class Parser {
   void readContacts(const Entry& e, ContactOptions& c) {
     readMap(e,
             {"max_links", "stabilization_kp", "stabilization_kd", "merge_distance_m",
-             "release_force_n", "release_ticks", "reengage_depth_m", "plastic_impact"},
+             "release_force_n", "release_ticks", "reengage_depth_m",
+             "initial_penetration_tolerance_m", "plastic_impact"},
             [&](const std::string& k, const Entry& v) {
               if (k == "max_links") c.max_links = integer(v);
               if (k == "stabilization_kp") c.stabilization_kp = number(v);
@@ -165,6 +167,8 @@ class Parser {
               if (k == "release_force_n") c.release_force_n = number(v);
               if (k == "release_ticks") c.release_ticks = integer(v);
               if (k == "reengage_depth_m") c.reengage_depth_m = number(v);
+              if (k == "initial_penetration_tolerance_m")
+                c.initial_penetration_tolerance_m = number(v);
               if (k == "plastic_impact") c.plastic_impact = boolean(v);
             });
   }

@@ -5,8 +5,9 @@
 /// Per tick, from the filter's own state (q, v):
 ///  1. collision → virtual links (virtual_links.hpp), plastic impact when a link appears;
 ///  2. joint-space feedback, Eq. 17, with the SE(3) difference for the base;
-///  3. task feedback of the point P, Eq. 18–20, with a weighted pseudo-inverse;
-///  4. Eq. 12 solved by Eq. 21–23 (paper_solver.hpp);
+///  3. task feedback of the point P, Eq. 18–20, with a weighted pseudo-inverse (or, with
+///     TaskPointOptions::as_constraint_rows, as the task rows of Eq. 16);
+///  4. Eq. 12 (or 16) solved by Eq. 21–23 (paper_solver.hpp);
 ///  5. semi-implicit Euler on the manifold: v ← v + v̇ dt, q ← q ⊕ v dt.
 /// The output pairs the state at which Eq. 12 was solved with v̇, τ_J and τ_C, so that any
 /// backend can re-evaluate Eq. 12 on it. step() does not allocate on the heap.
@@ -76,6 +77,7 @@ class DynamicsFilter {
   Eigen::Matrix3d task_R_ref_ = Eigen::Matrix3d::Identity();
   Vector6d task_rdot_ref_ = Vector6d::Zero();
   Vector6d task_rddot_ref_ = Vector6d::Zero();
+  Vector6d task_rhs_ = Vector6d::Zero();  // Eq. 16 rows: r̈_Pᵈ − J̇_P v
   Matrix6Xd J_P_;
   Eigen::MatrixXd JW_;          // 6 × nv: J_P Wq⁻¹
   Eigen::VectorXd task_weight_inv_;  // nv

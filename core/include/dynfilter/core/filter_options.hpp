@@ -26,6 +26,9 @@ struct TaskPointOptions {
   Eigen::Vector3d p_BP = Eigen::Vector3d(0.0, 0.0, 0.3);         ///< P in that link (m)
   double kp_linear = 100.0, kd_linear = 20.0;    ///< 1/s², 1/s
   double kp_angular = 100.0, kd_angular = 20.0;  ///< 1/s², 1/s
+  /// false: Eq. 19–20, P's desired acceleration corrects v̇ᵈ through J_P^# before the solve.
+  /// true: Eq. 16, P's desired acceleration becomes 6 more equality rows of the solve.
+  bool as_constraint_rows = false;
   /// Weight of the joint coordinates relative to the base ones in the weighted
   /// pseudo-inverse J_P^# = Wq⁻¹ J_Pᵀ (J_P Wq⁻¹ J_Pᵀ)⁻¹: > 1 moves the correction onto the base.
   double joint_weight = 10.0;

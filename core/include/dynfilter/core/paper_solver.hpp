@@ -48,9 +48,22 @@ class PaperSolver {
                       Eigen::Ref<Eigen::VectorXd> vdot, Eigen::Ref<Eigen::VectorXd> tau_C,
                       Eigen::Ref<Eigen::VectorXd> tau_J);
 
+  /// Eq. 16: Eq. 12 with task rows J_P v̇ = r̈_Pᵈ − J̇_P v appended (no force acts along
+  /// them). @param J_task N_P × nv (N_P ≤ 6); @param rhs_task N_P.
+  std::uint32_t solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                      const Eigen::Ref<const Eigen::VectorXd>& b,
+                      const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+                      const Eigen::Ref<const Eigen::VectorXd>& u_C,
+                      const Eigen::Ref<const Eigen::MatrixXd>& J_task,
+                      const Eigen::Ref<const Eigen::VectorXd>& rhs_task,
+                      const Eigen::Ref<const Eigen::VectorXd>& vdot_desired,
+                      Eigen::Ref<Eigen::VectorXd> vdot, Eigen::Ref<Eigen::VectorXd> tau_C,
+                      Eigen::Ref<Eigen::VectorXd> tau_J);
+
   const PaperSolverOptions& options() const { return options_; }
 
  private:
+  static constexpr int kMaxTaskRows = 6;
   int nv_, nb_, max_rows_;
   PaperSolverOptions options_;
   Eigen::MatrixXd Cv_;     // (nb + N_C) × nv
@@ -62,6 +75,8 @@ class PaperSolver {
   Eigen::MatrixXd HbTHb_;  // nb × nb
   Eigen::MatrixXd GinvE_;  // m × nb
   Eigen::VectorXd d_, lambda_, mu_, e_, w_, yv_, yc_, zv_, zc_, t_;
+  Eigen::MatrixXd empty_task_;      // 0 × nv
+  Eigen::VectorXd empty_task_rhs_;  // 0
 };
 
 }  // namespace dynfilter
