@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# One command on a fresh Debian 12: install dependencies, build (Release), run the demo.
+# One command on a fresh Debian 12: install dependencies, build (Release), run the demo:
+# describe the human figure, then filter a kinematic squat into a physically consistent one.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/install-deps.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
 cmake --build build
-./build/tools/model_info/dynfilter-model-info --joints
+./build/tools/model_info/dynfilter-model-info
+./build/tools/offline/dynfilter-offline data/squat_reference.csv -o build/squat_filtered.csv

@@ -115,6 +115,7 @@ State standingState(const ModelInfo& info, double pelvis_height_m, std::mt19937&
 
 struct Context {
   std::unique_ptr<IDynamicsModel> model;
+  std::unique_ptr<IDynamicsModel> skeleton_mass_model;  // A from Skeleton::getMassMatrix
   int l_foot = -1;
   int r_foot = -1;
   Eigen::Vector3d p_FootSole = Eigen::Vector3d::Zero();  // sole centre, foot frame
@@ -128,6 +129,9 @@ Context makeContext() {
   Context c;
   c.model = dynfilter::dart_backend::loadDartModel(sourcePath("models/human_figure.urdf"),
                                                    dynfilter::ModelOptions{});
+  c.skeleton_mass_model = dynfilter::dart_backend::loadDartModel(
+      sourcePath("models/human_figure.urdf"), dynfilter::ModelOptions{},
+      dynfilter::dart_backend::DartMassMatrix::kSkeleton);
   const ModelInfo& info = c.model->info();
   c.l_foot = info.findBody("l_foot");
   c.r_foot = info.findBody("r_foot");
@@ -181,9 +185,8 @@ void BM_SetState(benchmark::State& st) {
   }
 }
 
-void BM_MassMatrix(benchmark::State& st) {
+void massMatrixLoop(benchmark::State& st, IDynamicsModel& model) {
   Context& c = context();
-  IDynamicsModel& model = *c.model;
   Eigen::MatrixXd A(model.nv(), model.nv());
   std::size_t k = 0;
   for (auto _ : st) {
@@ -193,6 +196,13 @@ void BM_MassMatrix(benchmark::State& st) {
     benchmark::DoNotOptimize(A.data());
     benchmark::ClobberMemory();
   }
+}
+
+// The backend's default: Σ J_kᵀ M_k J_k over bodies.
+void BM_MassMatrix(benchmark::State& st) { massMatrixLoop(st, *context().model); }
+// DART's own Skeleton::getMassMatrix, for comparison.
+void BM_MassMatrixDartSkeleton(benchmark::State& st) {
+  massMatrixLoop(st, *context().skeleton_mass_model);
 }
 
 void BM_Bias(benchmark::State& st) {
@@ -279,6 +289,7 @@ void BM_DetectContacts(benchmark::State& st) {
 
 BENCHMARK(BM_SetState)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MassMatrix)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_MassMatrixDartSkeleton)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Bias)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_FootJacobians)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_FootJacobianDotTimesV)->Unit(benchmark::kMicrosecond);
