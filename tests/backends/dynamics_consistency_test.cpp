@@ -191,6 +191,8 @@ INSTANTIATE_TEST_SUITE_P(
         cases.push_back({backend, "tests/models/floating_chain.urdf", true});
         cases.push_back({backend, "tests/models/floating_chain.urdf", false});
         cases.push_back({backend, "tests/models/double_pendulum.urdf", false});
+        cases.push_back({backend, "tests/models/quadruped.urdf", true});
+        cases.push_back({backend, "tests/models/arm7.urdf", false});
       }
       return cases;
     }()),
