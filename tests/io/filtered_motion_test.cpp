@@ -443,3 +443,64 @@ TEST(FilteredMotionWriter, ExtremeValuesRoundTripBitExactly) {
 
 }  // namespace
 }  // namespace dynfilter::io
+
+#include "dynfilter/io/filtered_motion_reader.hpp"
+
+namespace dynfilter::io {
+namespace {
+
+TEST(FilteredMotionReader, ReadsBackStatesTorquesAndContactWrenchesExactly) {
+  const ModelInfo& info = humanInfo();
+  std::mt19937 rng(77);
+  const std::string path = tempPath("read_back.csv");
+  std::vector<FilterOutput> outs;
+  for (int k = 0; k < 4; ++k) outs.push_back(sampleOutput(info, rng, 0.25 * k, k % 3));
+  {
+    FilteredMotionWriter writer(path, info);
+    for (const auto& o : outs) writer.append(o);
+    writer.commit();
+  }
+  const auto frames = readFilteredMotion(path, info);
+  ASSERT_EQ(frames.size(), outs.size());
+  for (std::size_t k = 0; k < outs.size(); ++k) {
+    EXPECT_EQ(frames[k].state.time_s, outs[k].time_s);
+    EXPECT_EQ(frames[k].state.v, outs[k].v);
+    EXPECT_EQ(frames[k].state.vdot, outs[k].vdot);
+    EXPECT_EQ(frames[k].tau_J, outs[k].tau_J);
+    ASSERT_EQ(static_cast<int>(frames[k].contacts.size()), outs[k].num_contacts);
+    for (int c = 0; c < outs[k].num_contacts; ++c) {
+      const auto& written = outs[k].contacts[static_cast<std::size_t>(c)];
+      const auto& read = frames[k].contacts[static_cast<std::size_t>(c)];
+      EXPECT_EQ(read.body, written.body);
+      EXPECT_EQ(read.p_WC, written.p_WC);
+      EXPECT_EQ(read.wrench_W, written.wrench_W);
+    }
+  }
+}
+
+TEST(FilteredMotionReader, AContactOnAnUnknownBodyNamesTheLine) {
+  const ModelInfo& info = humanInfo();
+  std::mt19937 rng(78);
+  const std::string path = tempPath("unknown_body.csv");
+  {
+    FilteredMotionWriter writer(path, info);
+    writer.append(sampleOutput(info, rng, 0.0, 1));
+    writer.append(sampleOutput(info, rng, 0.1, 0));
+    writer.commit();
+  }
+  const std::string contacts = FilteredMotionWriter::contactsPathFor(path);
+  std::string text = readWholeFile(contacts);
+  const std::string body = info.body_names[0];
+  text.replace(text.find("," + body + ","), body.size() + 2, ",tail,");
+  writeFile(contacts, text);
+  try {
+    readFilteredMotion(path, info);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 2);
+    EXPECT_NE(std::string(e.what()).find("unknown body \"tail\""), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace dynfilter::io
