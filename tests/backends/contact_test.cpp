@@ -50,6 +50,21 @@ TEST_P(Contacts, BoxAboveTheGroundHasNoContact) {
   EXPECT_TRUE(contacts.empty());
 }
 
+TEST_P(Contacts, NoStaleContactAfterLiftingOff) {
+  // Engines may keep contact manifolds between queries; a lifted box must not touch.
+  auto model = box(Environment{});
+  Eigen::VectorXd q(7);
+  ContactList contacts;
+  q << 0, 0, 0.024, 1, 0, 0, 0;
+  model->setState(q, Eigen::VectorXd::Zero(6));
+  model->detectContacts(contacts);
+  ASSERT_EQ(contacts.size(), 4u);
+  q[2] = 0.027;  // 2 mm above the ground
+  model->setState(q, Eigen::VectorXd::Zero(6));
+  model->detectContacts(contacts);
+  EXPECT_TRUE(contacts.empty());
+}
+
 TEST_P(Contacts, SlopedGroundNormalAndDepth) {
   Environment env;
   const double slope = 10.0 * M_PI / 180.0;

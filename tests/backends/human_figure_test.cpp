@@ -1,11 +1,13 @@
 // The project's human figure: generated from de Leva (1996), loaded by every backend.
 #include <cstdlib>
 #include <fstream>
+#include <random>
 #include <set>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/test_support.hpp"
 
@@ -90,6 +92,26 @@ TEST_P(HumanFigure, StandsOnBothSolesAtTheNominalHeight) {
   EXPECT_NEAR(com.y(), 0.0, 1e-9);
   EXPECT_GT(com.z() / height, 0.53);
   EXPECT_LT(com.z() / height, 0.60);
+}
+
+TEST_P(HumanFigure, CollisionEngineFindsTheDocumentedStandingHeight) {
+  const double z = standingBaseHeight(*model_, model_->info().neutralConfiguration());
+  EXPECT_NEAR(z, meta_["standing_pelvis_height_m"].get<double>(), 1e-6);
+}
+
+TEST_P(HumanFigure, RandomStatesAreValidAndInsideTheLimits) {
+  std::mt19937 rng(3);
+  Eigen::VectorXd q, v;
+  const ModelInfo& info = model_->info();
+  for (int k = 0; k < 1000; ++k) {
+    randomState(info, rng, 2.0, q, v);
+    ASSERT_TRUE(info.checkState(q, v).ok);
+    for (int j = 0; j < info.nj; ++j) {
+      EXPECT_GE(q[info.configurationIndex(j)], info.q_lower[j]);
+      EXPECT_LE(q[info.configurationIndex(j)], info.q_upper[j]);
+    }
+    EXPECT_LE(v.cwiseAbs().maxCoeff(), 2.0);
+  }
 }
 
 TEST_P(HumanFigure, SegmentMassFractionsFollowDeLeva) {

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/dart/dart_model.hpp"
 
 namespace dynfilter::test {
@@ -25,21 +26,7 @@ std::unique_ptr<IDynamicsModel> makeModel(const std::string& backend,
 
 void randomState(const IDynamicsModel& model, std::mt19937& rng, double velocity_scale,
                  Eigen::VectorXd& q, Eigen::VectorXd& v) {
-  const ModelInfo& info = model.info();
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  q.resize(info.nq);
-  v.resize(info.nv);
-  if (info.floating_base) {
-    q.head<3>() = Eigen::Vector3d(unit(rng), unit(rng), 1.0 + unit(rng));
-    Eigen::Vector4d quat(unit(rng), unit(rng), unit(rng), unit(rng));
-    q.segment<4>(3) = quat.normalized();
-  }
-  for (int j = 0; j < info.nj; ++j) {
-    const double lo = std::isfinite(info.q_lower[j]) ? info.q_lower[j] : -M_PI;
-    const double hi = std::isfinite(info.q_upper[j]) ? info.q_upper[j] : M_PI;
-    q[info.configurationIndex(j)] = lo + (hi - lo) * 0.5 * (1.0 + unit(rng));
-  }
-  for (int i = 0; i < info.nv; ++i) v[i] = velocity_scale * unit(rng);
+  dynfilter::randomState(model.info(), rng, velocity_scale, q, v);
 }
 
 std::vector<LinkMass> linkMasses(const urdf::RobotDescription& robot) {

@@ -213,6 +213,9 @@ class DartModel final : public IDynamicsModel {
     dart::collision::CollisionOption option(true, out.capacity() + 1, collision_filter_);
     collision_group_->collide(option, &collision_result_);
     for (const auto& c : collision_result_.getContacts()) {
+      // The persistent group keeps Bullet's contact manifolds between calls; points that
+      // have separated (negative depth) linger until the breaking threshold: skip them.
+      if (!(c.penetrationDepth >= 0.0)) continue;
       const auto* frame1 = c.collisionObject1->getShapeFrame();
       const auto* frame2 = c.collisionObject2->getShapeFrame();
       const auto* node1 = frame1->asShapeNode();
@@ -226,7 +229,7 @@ class DartModel final : public IDynamicsModel {
       cand.object = env_object_.at(env_body);
       // DART's normal points from object 2 to object 1.
       cand.n_W = (robot_first ? c.normal : -c.normal).normalized();
-      cand.depth_m = std::max(0.0, c.penetrationDepth);
+      cand.depth_m = c.penetrationDepth;
       cand.p_WC = c.point;
       cand.p_BC = bodyPose(cand.body).inverse() * cand.p_WC;
       out.push(cand);

@@ -1,0 +1,25 @@
+#pragma once
+/// @file
+/// States for checks and tools: random valid states, and where a model stands.
+
+#include <random>
+
+#include <Eigen/Core>
+
+#include "dynfilter/core/dynamics_model.hpp"
+#include "dynfilter/core/model_info.hpp"
+
+namespace dynfilter {
+
+/// A random valid state: base within 1 m of (0, 0, 1) with a uniformly random orientation
+/// (floating base), joints uniform within their limits (continuous joints in [−π, π]),
+/// velocities uniform in [−velocity_scale, velocity_scale]. Resizes @p q (nq), @p v (nv).
+void randomState(const ModelInfo& info, std::mt19937& rng, double velocity_scale,
+                 Eigen::VectorXd& q, Eigen::VectorXd& v);
+
+/// The base height (world z, m) at which @p model, in configuration @p q with its base at
+/// that height, first touches the environment according to its own collision engine
+/// (bisection to 1e-9 m over [0, 3] m). Changes the model's state. Floating base only.
+double standingBaseHeight(IDynamicsModel& model, Eigen::VectorXd q);
+
+}  // namespace dynfilter

@@ -1,0 +1,43 @@
+#include "dynfilter/core/model_sampling.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace dynfilter {
+
+void randomState(const ModelInfo& info, std::mt19937& rng, double velocity_scale,
+                 Eigen::VectorXd& q, Eigen::VectorXd& v) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  q.resize(info.nq);
+  v.resize(info.nv);
+  if (info.floating_base) {
+    q.head<3>() = Eigen::Vector3d(unit(rng), unit(rng), 1.0 + unit(rng));
+    // A normalised 4-D Gaussian is uniform on the rotation group.
+    q.segment<4>(3) =
+        Eigen::Vector4d(normal(rng), normal(rng), normal(rng), normal(rng)).normalized();
+  }
+  for (int j = 0; j < info.nj; ++j) {
+    const double lo = std::isfinite(info.q_lower[j]) ? info.q_lower[j] : -M_PI;
+    const double hi = std::isfinite(info.q_upper[j]) ? info.q_upper[j] : M_PI;
+    q[info.configurationIndex(j)] = lo + (hi - lo) * 0.5 * (1.0 + unit(rng));
+  }
+  for (int i = 0; i < info.nv; ++i) v[i] = velocity_scale * unit(rng);
+}
+
+double standingBaseHeight(IDynamicsModel& model, Eigen::VectorXd q) {
+  if (!model.info().floating_base)
+    throw std::invalid_argument("standingBaseHeight needs a floating-base model");
+  const Eigen::VectorXd v = Eigen::VectorXd::Zero(model.nv());
+  ContactList contacts;
+  double touching = 0.0, free = 3.0;
+  for (int it = 0; it < 32; ++it) {
+    q[2] = 0.5 * (touching + free);
+    model.setState(q, v);
+    model.detectContacts(contacts);
+    (contacts.empty() ? free : touching) = q[2];
+  }
+  return free;
+}
+
+}  // namespace dynfilter
