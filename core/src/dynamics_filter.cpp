@@ -111,6 +111,15 @@ void DynamicsFilter::reseed(const ReferenceFrame& reference) {
   }
 }
 
+bool DynamicsFilter::setMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                      const Eigen::Ref<const Eigen::VectorXd>& v) {
+  if (!model_.info().checkState(q, v).ok) return false;
+  q_ = q;
+  v_ = v;
+  if (nb_ > 0) q_.segment<4>(3).normalize();
+  return true;
+}
+
 void DynamicsFilter::desiredAcceleration(const ReferenceFrame& reference) {
   // Eq. 17 with qʳᵉᶠ ⊖ q on SE(3) × Rⁿ.
   differenceConfiguration(nb_ > 0, q_, reference.q, dq_);

@@ -43,12 +43,11 @@ bool ReferenceBuffer::sample(double t_s, ReferenceFrame& out) const {
     }
     return true;
   }
-  if (t_s <= oldestTime()) {
-    const ReferenceFrame& oldest = at(0);
+  if (t_s < oldestTime()) {  // before the stream starts: its first pose, at rest
     out.time_s = t_s;
-    out.q = oldest.q;
-    out.v = oldest.v;
-    out.vdot = oldest.vdot;
+    out.q = at(0).q;
+    out.v.setZero();
+    out.vdot.setZero();
     return true;
   }
   int i = size_ - 2;

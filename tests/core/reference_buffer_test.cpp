@@ -27,9 +27,10 @@ TEST(ReferenceBuffer, InterpolatesBetweenFramesAndHoldsAfterTheNewest) {
   ASSERT_TRUE(buffer.sample(5.0, out));
   EXPECT_DOUBLE_EQ(out.q[7], 1.0);
   EXPECT_EQ(out.v.norm(), 0.0);
-  // Before the oldest: the oldest.
+  // Before the oldest: the oldest pose, at rest.
   ASSERT_TRUE(buffer.sample(0.0, out));
   EXPECT_DOUBLE_EQ(out.q[7], 0.0);
+  EXPECT_EQ(out.v.norm() + out.vdot.norm(), 0.0);
 }
 
 TEST(ReferenceBuffer, RejectsTimeGoingBackwardsAndDropsTheOldestWhenFull) {

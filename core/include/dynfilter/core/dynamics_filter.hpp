@@ -40,6 +40,12 @@ class DynamicsFilter {
   /// base only). Throws InvalidStateError on an invalid frame.
   void reset(const ReferenceFrame& reference);
 
+  /// Replaces the filter's state by a measured one (closing the loop on a robot): the next
+  /// tick starts from it. The virtual links are kept. Returns false, changing nothing, on
+  /// an invalid state (sizes, non-finite, quaternion); no allocation.
+  bool setMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                        const Eigen::Ref<const Eigen::VectorXd>& v);
+
   /// One control tick towards @p reference. Never throws; an invalid reference is
   /// replaced by the last valid one and flagged in the status.
   const FilterOutput& step(const ReferenceFrame& reference);

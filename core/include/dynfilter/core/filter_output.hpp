@@ -22,6 +22,8 @@ enum FilterStatusBits : std::uint32_t {
   kStatusReferenceInvalid = 1u << 3,  ///< the reference frame was rejected; previous one used
   kStatusReseeded = 1u << 4,          ///< divergence: the state was reset to the reference
   kStatusImpact = 1u << 5,            ///< a plastic impact reset the velocity this tick
+  kStatusTorqueClamped = 1u << 6,     ///< a published torque was clamped to its URDF limit
+  kStatusStaleReference = 1u << 7,    ///< no reference for the timeout: holding posture
 };
 
 /// Kinds of virtual link, by the number of constrained axes of the contact frame.

@@ -20,8 +20,8 @@ class ReferenceBuffer {
   bool push(const ReferenceFrame& frame);
 
   /// The reference at @p t_s: interpolated between the two frames around it (SE(3)
-  /// geodesic for the base); before the oldest frame the oldest, after the newest the
-  /// newest with zero velocity and acceleration (hold, never extrapolate).
+  /// geodesic for the base); before the oldest frame the oldest pose and after the newest
+  /// the newest pose, both with zero velocity and acceleration (hold, never extrapolate).
   /// Returns false when empty. @p out must have the model's sizes. No allocation.
   bool sample(double t_s, ReferenceFrame& out) const;
 

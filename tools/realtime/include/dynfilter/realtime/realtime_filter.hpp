@@ -1,0 +1,84 @@
+#pragma once
+/// @file
+/// The filter as a control loop: reference frames arrive at their own rate on the
+/// sender's clock; the loop ticks at a fixed rate, samples the reference (interpolated,
+/// a fixed delay behind the newest frame so that there is always a frame on each side),
+/// optionally closes the loop on the measured robot state, and produces torque commands
+/// that are finite and within the URDF limits. Transport-free: the LCM processes and the
+/// tests drive it the same way. tick() does not allocate.
+
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "dynfilter/core/dynamics_filter.hpp"
+#include "dynfilter/core/reference_buffer.hpp"
+
+namespace dynfilter::realtime {
+
+struct RealtimeOptions {
+  /// No reference frame for this long (s) → hold the current posture (damped by the
+  /// filter's feedback) and report kStatusStaleReference.
+  double stale_timeout_s = 0.25;
+  /// The reference is played this far (s) behind the newest received frame's time.
+  double reference_delay_s = 0.05;
+  /// Start each tick from the measured robot state when one is fresh.
+  bool use_measured_state = false;
+  /// A measured state older than this (s) is not used.
+  double measured_state_timeout_s = 0.05;
+};
+
+struct Counters {
+  std::uint64_t frames_accepted = 0;
+  std::uint64_t frames_rejected = 0;  ///< time not after the newest frame
+  std::uint64_t ticks = 0;
+  std::uint64_t stale_ticks = 0;
+  std::uint64_t reseeds = 0;
+  std::uint64_t torque_clamps = 0;
+};
+
+class RealtimeFilter {
+ public:
+  /// Holds @p hold_posture (a reference frame of the model) until the first frame arrives.
+  RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,
+                 const RealtimeOptions& options, const ReferenceFrame& hold_posture);
+
+  /// A validated reference frame; frame.time_s is on the sender's clock (s). @p now_s is
+  /// the local clock at reception. Returns false (counted as rejected) when its time is
+  /// not after the newest frame's.
+  bool addReference(const ReferenceFrame& frame, double now_s);
+
+  /// A validated measured state (q: nq, v: nv) received at @p now_s.
+  void addMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                        const Eigen::Ref<const Eigen::VectorXd>& v, double now_s);
+
+  /// One control tick at local time @p now_s. Never throws.
+  const FilterOutput& tick(double now_s);
+
+  /// Status bits of the last tick: the filter's, plus kStatusStaleReference and
+  /// kStatusTorqueClamped from this layer.
+  std::uint32_t status() const { return status_; }
+  /// Torques to publish after tick(): the filter's τ_J clamped to ±tau_max (dim nj).
+  const Eigen::VectorXd& command() const { return command_; }
+  /// The reference sample the last tick used (its time on the sender's clock).
+  const ReferenceFrame& lastReference() const { return sample_; }
+  const Counters& counters() const { return counters_; }
+  bool stale() const { return stale_; }
+  const DynamicsFilter& filter() const { return filter_; }
+
+ private:
+  IDynamicsModel& model_;
+  RealtimeOptions options_;
+  DynamicsFilter filter_;
+  ReferenceBuffer buffer_;
+  ReferenceFrame hold_, sample_;
+  Eigen::VectorXd command_, measured_q_, measured_v_;
+  double clock_offset_s_ = 0.0;  // local − sender
+  double last_frame_local_s_ = -1e300;
+  double measured_local_s_ = -1e300;
+  bool stale_ = true;
+  std::uint32_t status_ = 0;
+  Counters counters_;
+};
+
+}  // namespace dynfilter::realtime

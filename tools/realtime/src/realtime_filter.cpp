@@ -1,0 +1,84 @@
+#include "dynfilter/realtime/realtime_filter.hpp"
+
+#include <algorithm>
+
+namespace dynfilter::realtime {
+
+RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,
+                               const RealtimeOptions& options, const ReferenceFrame& hold_posture)
+    : model_(model),
+      options_(options),
+      filter_(model, filter_options),
+      buffer_(model.nq(), model.nv(), model.info().floating_base),
+      hold_(hold_posture),
+      sample_(model.nq(), model.nv()),
+      command_(Eigen::VectorXd::Zero(model.nj())),
+      measured_q_(model.info().neutralConfiguration()),
+      measured_v_(Eigen::VectorXd::Zero(model.nv())) {
+  filter_.reset(hold_);
+}
+
+bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s) {
+  if (stale_) {
+    // (Re)start on this stream: its clock against ours, an empty history.
+    buffer_.clear();
+    clock_offset_s_ = now_s - frame.time_s;
+  }
+  if (!buffer_.push(frame)) {
+    ++counters_.frames_rejected;
+    return false;
+  }
+  ++counters_.frames_accepted;
+  last_frame_local_s_ = now_s;
+  stale_ = false;
+  return true;
+}
+
+void RealtimeFilter::addMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                      const Eigen::Ref<const Eigen::VectorXd>& v, double now_s) {
+  measured_q_ = q;
+  measured_v_ = v;
+  measured_local_s_ = now_s;
+}
+
+const FilterOutput& RealtimeFilter::tick(double now_s) {
+  ++counters_.ticks;
+  if (!stale_ && now_s - last_frame_local_s_ > options_.stale_timeout_s) {
+    // Hold where the filter is now, at rest.
+    stale_ = true;
+    hold_.q = filter_.q();
+    hold_.v.setZero();
+    hold_.vdot.setZero();
+  }
+  if (stale_) {
+    ++counters_.stale_ticks;
+    sample_.q = hold_.q;
+    sample_.v = hold_.v;
+    sample_.vdot = hold_.vdot;
+    sample_.time_s = now_s;
+  } else {
+    buffer_.sample(now_s - clock_offset_s_ - options_.reference_delay_s, sample_);
+  }
+  if (options_.use_measured_state && now_s - measured_local_s_ <= options_.measured_state_timeout_s)
+    filter_.setMeasuredState(measured_q_, measured_v_);
+
+  const FilterOutput& out = filter_.step(sample_);
+  std::uint32_t extra = stale_ ? kStatusStaleReference : 0u;
+  if (out.status & kStatusReseeded) ++counters_.reseeds;
+  // The filter keeps its last good output on a failed tick, so τ_J is always finite.
+  const ModelInfo& info = model_.info();
+  bool clamped = false;
+  for (int j = 0; j < info.nj; ++j) {
+    const double tau = out.tau_J[j];
+    command_[j] = std::clamp(tau, -info.tau_max[j], info.tau_max[j]);
+    clamped |= command_[j] != tau;
+  }
+  if (clamped) {
+    extra |= kStatusTorqueClamped;
+    ++counters_.torque_clamps;
+  }
+  status_ = out.status | extra;
+  return out;
+}
+
+}  // namespace dynfilter::realtime
