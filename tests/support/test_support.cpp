@@ -6,6 +6,7 @@
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/dart/dart_model.hpp"
+#include "dynfilter/ode/ode_model.hpp"
 
 namespace dynfilter::test {
 
@@ -15,12 +16,13 @@ std::string sourcePath(const std::string& relative) {
 std::string testModelPath(const std::string& name) { return sourcePath("tests/models/" + name); }
 std::string humanFigurePath() { return sourcePath("models/human_figure.urdf"); }
 
-std::vector<std::string> allBackends() { return {"dart"}; }
+std::vector<std::string> allBackends() { return {"dart", "ode"}; }
 
 std::unique_ptr<IDynamicsModel> makeModel(const std::string& backend,
                                           const urdf::RobotDescription& robot,
                                           const ModelOptions& options) {
   if (backend == "dart") return dart_backend::makeDartModel(robot, options);
+  if (backend == "ode") return ode_backend::makeOdeModel(robot, options);
   throw std::invalid_argument("unknown backend " + backend);
 }
 

@@ -10,7 +10,8 @@
 #include <CLI/CLI.hpp>
 
 #include "dynfilter/core/errors.hpp"
-#include "dynfilter/dart/dart_model.hpp"
+#include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 
 namespace {
@@ -28,22 +29,6 @@ void printJoints(const dynfilter::ModelInfo& info) {
                 info.v_max[j]);
 }
 
-// Lowest world z of any contact-capable point is found by lowering the model until the
-// collision engine reports contact: the height at which the model stands on level ground.
-double standingBaseHeight(IDynamicsModel& model) {
-  Eigen::VectorXd q = model.info().neutralConfiguration();
-  const Eigen::VectorXd v = Eigen::VectorXd::Zero(model.nv());
-  ContactList contacts;
-  double lo = 0.0, hi = 3.0;
-  for (int it = 0; it < 40; ++it) {
-    q[2] = 0.5 * (lo + hi);
-    model.setState(q, v);
-    model.detectContacts(contacts);
-    (contacts.empty() ? hi : lo) = q[2];
-  }
-  return hi;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -54,8 +39,11 @@ int main(int argc, char** argv) {
   double dt = 1e-3;
   double kp = 2000.0, kd = 40.0;
   bool list_joints = false;
+  std::string backend = "dart";
   app.add_option("urdf", urdf_path, "URDF file (default: the human figure)");
   app.add_flag("--fixed-base", fixed_base, "weld the root link to the world");
+  app.add_option("--backend", backend, "dynamics backend: dart or ode")
+      ->check(CLI::IsMember(dynfilter::availableBackends()));
   app.add_flag("--joints", list_joints, "print every joint with its limits");
   app.add_option("--seconds", seconds, "simulated standing time (s)")->check(CLI::NonNegativeNumber);
   app.add_option("--dt", dt, "simulation step (s)")->check(CLI::PositiveNumber);
@@ -68,7 +56,7 @@ int main(int argc, char** argv) {
     for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     dynfilter::ModelOptions options;
     options.floating_base = !fixed_base;
-    auto model = dynfilter::dart_backend::makeDartModel(robot, options);
+    auto model = dynfilter::makeModel(backend, robot, options);
     const auto& info = model->info();
     std::printf("model %s (%s backend) from %s\n", info.name.c_str(),
                 std::string(model->backendName()).c_str(), urdf_path.c_str());
@@ -90,7 +78,7 @@ int main(int argc, char** argv) {
                 std::chrono::duration<double, std::micro>(t1 - t0).count());
 
     if (!info.floating_base) return 0;
-    const double z0 = standingBaseHeight(*model);
+    const double z0 = dynfilter::standingBaseHeight(*model, info.neutralConfiguration());
     Eigen::VectorXd q = info.neutralConfiguration();
     q[2] = z0 - 1e-4;  // 0.1 mm into the floor: the collision engine reports the soles
     model->setState(q, Eigen::VectorXd::Zero(info.nv));

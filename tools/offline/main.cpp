@@ -21,7 +21,7 @@
 
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/errors.hpp"
-#include "dynfilter/dart/dart_model.hpp"
+#include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/io/config.hpp"
 #include "dynfilter/io/filtered_motion.hpp"
 #include "dynfilter/io/reference_motion.hpp"
@@ -66,7 +66,8 @@ int main(int argc, char** argv) {
   app.add_option("-o,--output", output_path, "filtered motion CSV to write")->required();
   app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
   app.add_option("-c,--config", config_path, "YAML configuration (tools/config/default.yaml)");
-  app.add_option("--backend", backend, "dynamics backend")->check(CLI::IsMember({"dart"}));
+  app.add_option("--backend", backend, "dynamics backend: dart or ode")
+      ->check(CLI::IsMember(availableBackends()));
   app.add_option("--tick-hz", tick_hz, "filter rate (Hz)")
       ->check(CLI::PositiveNumber);
   app.add_option("--slope-deg", slope_deg, "ground slope, overrides the config (deg)");
@@ -90,7 +91,7 @@ int main(int argc, char** argv) {
     model_options.environment = config.environment;
     const auto robot = urdf::loadUrdfFile(model_path);
     for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-    auto model = dart_backend::makeDartModel(robot, model_options);
+    auto model = makeModel(backend, robot, model_options);
     const io::ReferenceMotion motion = io::readReferenceMotion(reference_path, model->info());
 
     // Uniformly sampled references (the usual mocap case) are filtered with a whole number

@@ -243,6 +243,13 @@ class DartModel final : public IDynamicsModel {
     setJointForces(tau_J);
     world_->step();
     robot_.skeleton->resetAccelerations();
+    // A diverged step would reach DART's live assertions on the next call: keep the last
+    // finite state and say so.
+    if (!robot_.skeleton->getPositions().allFinite() ||
+        !robot_.skeleton->getVelocities().allFinite()) {
+      pushState();
+      throw std::runtime_error("DART simulation diverged (non-finite state); state kept");
+    }
     pullState();
   }
 

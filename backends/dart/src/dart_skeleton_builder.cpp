@@ -1,5 +1,7 @@
 #include "dart_skeleton_builder.hpp"
 
+#include <limits>
+
 #include <dart/dynamics/BoxShape.hpp>
 #include <dart/dynamics/CylinderShape.hpp>
 #include <dart/dynamics/FreeJoint.hpp>
@@ -34,14 +36,18 @@ typename JointT::Properties jointProperties(const urdf::JointDesc& j) {
   return props;
 }
 
+// Position stops only: with limit enforcement on, DART would also clamp joint velocities
+// to their limits, which ModelOptions does not promise (and ODE does not do). Velocity
+// and effort limits live in ModelInfo; torque clamping is the controller's job.
 template <typename JointT>
 void setSingleDofLimits(JointT* joint, const urdf::JointDesc& j) {
+  const double inf = std::numeric_limits<double>::infinity();
   joint->setPositionLowerLimit(0, j.lower);
   joint->setPositionUpperLimit(0, j.upper);
-  joint->setVelocityLowerLimit(0, -j.velocity_max);
-  joint->setVelocityUpperLimit(0, j.velocity_max);
-  joint->setForceLowerLimit(0, -j.effort_max);
-  joint->setForceUpperLimit(0, j.effort_max);
+  joint->setVelocityLowerLimit(0, -inf);
+  joint->setVelocityUpperLimit(0, inf);
+  joint->setForceLowerLimit(0, -inf);
+  joint->setForceUpperLimit(0, inf);
 }
 
 ShapePtr makeShape(const urdf::CollisionShapeDesc& s) {

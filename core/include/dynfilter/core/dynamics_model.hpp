@@ -85,7 +85,8 @@ class IDynamicsModel {
   /// current state, from the backend's collision engine. Clears @p out first.
   virtual void detectContacts(ContactList& out) const = 0;
   /// Advances the state by one step of the engine's own simulator (its own contact and
-  /// integration scheme) with joint torques @p tau_J held over @p dt_s seconds.
+  /// integration scheme) with joint torques @p tau_J held over @p dt_s seconds. Throws
+  /// std::runtime_error, keeping the previous state, if the step diverged (non-finite).
   virtual void simulateStep(const Eigen::Ref<const Eigen::VectorXd>& tau_J, double dt_s) = 0;
 };
 

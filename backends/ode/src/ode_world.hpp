@@ -1,0 +1,111 @@
+#pragma once
+// Internal: an ODE world (bodies, joints, collision geoms) built from a RobotDescription
+// and an Environment.
+
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <ode/ode.h>
+
+#include "dynfilter/core/contact.hpp"
+#include "dynfilter/core/environment.hpp"
+#include "dynfilter/urdf/robot_description.hpp"
+
+namespace dynfilter::ode_backend {
+
+/// ODE's dMatrix3 is 3 × 4, row-major, the fourth column unused.
+inline Eigen::Matrix3d rotationFromOde(const dReal* R) {
+  Eigen::Matrix3d M;
+  M << R[0], R[1], R[2], R[4], R[5], R[6], R[8], R[9], R[10];
+  return M;
+}
+inline void toOdeRotation(const Eigen::Matrix3d& R, dMatrix3 out) {
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) out[4 * i + j] = R(i, j);
+    out[4 * i + 3] = 0.0;
+  }
+}
+
+/// dInitODE2 once per process (thread-safe), plus ODE's per-thread data for the calling
+/// thread. Throws std::runtime_error when the library is not double precision.
+void ensureOdeInitialised();
+
+/// One rigid body of the model: a URDF link on a moving joint (or the root) together with
+/// the links welded to it by fixed joints. Its frame N is that link's frame; the ODE body
+/// sits at the lumped centre of mass with N's axes (ODE wants the CoM at the body origin),
+/// so X_NB = Trans(p_NCom).
+struct OdeNode {
+  dBodyID body = nullptr;     ///< null only for a fixed-base root: the world itself
+  int parent = -1;            ///< parent node (nodes are parent-first), −1 for the root
+  int link = -1;              ///< the carrier URDF link (the one whose frame N is)
+  int coordinate = -1;        ///< joint coordinate (0 ≤ c < nj), −1 for the root
+  bool prismatic = false;     ///< slider; otherwise hinge (revolute, continuous)
+  dJointID joint = nullptr;   ///< hinge or slider, body 1 = this node, body 2 = parent
+  Eigen::Isometry3d X_PJ = Eigen::Isometry3d::Identity();  ///< joint frame in parent's N
+  Eigen::Vector3d axis_J = Eigen::Vector3d::UnitX();       ///< unit axis in J
+  Eigen::Vector3d p_NCom = Eigen::Vector3d::Zero();        ///< body origin in N (m)
+  double mass_kg = 0.0;                                    ///< lumped mass
+  Eigen::Matrix3d I_Com_N = Eigen::Matrix3d::Zero();       ///< about the CoM, N axes
+};
+
+/// Where a URDF link lives: a frame on a node.
+struct OdeLinkFrame {
+  int node = -1;
+  Eigen::Isometry3d X_NL = Eigen::Isometry3d::Identity();  ///< link frame in N
+  Eigen::Isometry3d X_BL = Eigen::Isometry3d::Identity();  ///< link frame in the ODE body frame
+};
+
+/// What a collision geom belongs to (dGeomSetData points at one of these).
+struct OdeGeomTag {
+  bool robot = false;
+  int link = -1;                 ///< robot geoms: URDF link index
+  int node = -1;                 ///< robot geoms: node index
+  int object = kGroundObject;    ///< environment geoms: kGroundObject or box index
+  double friction = 0.0;         ///< environment geoms: Coulomb μ
+};
+
+/// Owns the ODE world, its collision spaces and the contact joint group.
+class OdeWorld {
+ public:
+  OdeWorld(const urdf::RobotDescription& robot, bool floating_base,
+           const Eigen::Vector3d& gravity_W, const Environment& environment,
+           bool enforce_joint_limits);
+  ~OdeWorld();
+  OdeWorld(const OdeWorld&) = delete;
+  OdeWorld& operator=(const OdeWorld&) = delete;
+
+  dWorldID world() const { return world_; }
+  dSpaceID robotSpace() const { return robot_space_; }
+  dSpaceID environmentSpace() const { return environment_space_; }
+  dJointGroupID contactGroup() const { return contact_group_; }
+
+  const std::vector<OdeNode>& nodes() const { return nodes_; }
+  const std::vector<OdeLinkFrame>& links() const { return links_; }
+  /// node_of_coordinate[c]: the node moved by joint coordinate c.
+  const std::vector<int>& nodeOfCoordinate() const { return node_of_coordinate_; }
+  /// Longest root-to-node path (number of nodes), for scratch sizes.
+  int maxDepth() const { return max_depth_; }
+
+ private:
+  void buildNodes(const urdf::RobotDescription& robot, bool floating_base);
+  void createBodiesAndJoints(bool enforce_joint_limits);
+  void setJointLimits(const OdeNode& node);
+  void createRobotGeoms(const urdf::RobotDescription& robot);
+  void createEnvironmentGeoms(const Environment& environment);
+
+  dWorldID world_ = nullptr;
+  dSpaceID robot_space_ = nullptr;
+  dSpaceID environment_space_ = nullptr;
+  dJointGroupID contact_group_ = nullptr;
+  std::vector<OdeNode> nodes_;
+  std::vector<OdeLinkFrame> links_;
+  std::vector<int> node_of_coordinate_;
+  std::vector<std::pair<double, double>> joint_limits_;  // (lower, upper) per coordinate
+  bool fixed_root_ = false;
+  std::vector<OdeGeomTag> geom_tags_;  // sized before any geom points at an entry
+  int max_depth_ = 1;
+};
+
+}  // namespace dynfilter::ode_backend

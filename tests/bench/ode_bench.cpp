@@ -1,0 +1,313 @@
+// Cost of the IDynamicsModel queries on the ODE backend, for the human figure
+// (models/human_figure.urdf: floating base, 32 joints, nv = 38) standing on level ground.
+// The same states as bench_dynamics (same seed and generators), so the medians compare one
+// to one with the DART backend's.
+//
+// Every timed iteration pushes a different state: kNumStates states are generated before
+// timing and the loop cycles through them. Each timed benchmark other than BM_SetState
+// includes one setState; BM_SetState reports that cost on its own so readers can subtract
+// it. Unlike DART, the ODE backend updates eagerly: setState runs the forward kinematics
+// and velocity recursion and poses every ODE body, so the queries read ready state.
+//
+// Run with repetitions to get medians, e.g.
+//   ./build/tests/bench/bench_ode --benchmark_repetitions=10
+//       --benchmark_report_aggregates_only=true
+// (one command line; see BENCHMARKS.md).
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <exception>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "dynfilter/core/contact.hpp"
+#include "dynfilter/core/dynamics_model.hpp"
+#include "dynfilter/core/model_options.hpp"
+#include "dynfilter/core/types.hpp"
+#include "dynfilter/ode/ode_model.hpp"
+
+namespace {
+
+using dynfilter::ContactList;
+using dynfilter::IDynamicsModel;
+using dynfilter::ModelInfo;
+
+constexpr std::size_t kNumStates = 64;  // power of two: the loop index wraps with a mask
+constexpr std::uint32_t kSeed = 20240601;
+constexpr double kVelocityScale = 1.0;     // |v_i| ≤ this (m/s, rad/s)
+constexpr double kLegPerturbation = 0.01;  // rad, standing states only
+constexpr double kStandingDepth = 0.001;   // m below the nominal standing height
+
+std::string sourcePath(const std::string& relative) {
+  return std::string(DYNFILTER_SOURCE_DIR) + "/" + relative;
+}
+
+struct State {
+  Eigen::VectorXd q;
+  Eigen::VectorXd v;
+  Eigen::VectorXd tau_J;  // torques for BM_ForwardDynamics
+};
+
+/// A random state: base near (0, 0, 1) m with a uniformly random orientation, joints
+/// uniform within their limits ([−π, π] when unbounded), velocities uniform in
+/// ±kVelocityScale, torques uniform in ±tau_max (±100 when unbounded).
+State randomState(const ModelInfo& info, std::mt19937& rng) {
+  std::uniform_real_distribution<double> symmetric(-1.0, 1.0);
+  std::normal_distribution<double> gaussian(0.0, 1.0);
+  State s;
+  s.q.resize(info.nq);
+  s.v.resize(info.nv);
+  s.tau_J.resize(info.nj);
+  if (info.floating_base) {
+    s.q.head<3>() = Eigen::Vector3d(0.1 * symmetric(rng), 0.1 * symmetric(rng),
+                                    1.0 + 0.1 * symmetric(rng));
+    // A normalised 4-D Gaussian is uniform on the unit sphere of quaternions.
+    Eigen::Vector4d wxyz;
+    do {
+      wxyz = Eigen::Vector4d(gaussian(rng), gaussian(rng), gaussian(rng), gaussian(rng));
+    } while (wxyz.norm() < 1e-6);
+    s.q.segment<4>(3) = wxyz.normalized();
+  }
+  for (int j = 0; j < info.nj; ++j) {
+    const double lo = std::isfinite(info.q_lower[j]) ? info.q_lower[j] : -M_PI;
+    const double hi = std::isfinite(info.q_upper[j]) ? info.q_upper[j] : M_PI;
+    s.q[info.configurationIndex(j)] = std::uniform_real_distribution<double>(lo, hi)(rng);
+    const double tau = std::isfinite(info.tau_max[j]) ? info.tau_max[j] : 100.0;
+    s.tau_J[j] = tau * symmetric(rng);
+  }
+  for (int i = 0; i < info.nv; ++i) s.v[i] = kVelocityScale * symmetric(rng);
+  return s;
+}
+
+bool isLegJoint(const std::string& name) {
+  for (const char* prefix : {"l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle"})
+    if (name.rfind(prefix, 0) == 0) return true;
+  return false;
+}
+
+/// Standing upright with the pelvis kStandingDepth below the nominal standing height
+/// (soles slightly in the floor), leg joints perturbed by ±kLegPerturbation, at rest.
+State standingState(const ModelInfo& info, double pelvis_height_m, std::mt19937& rng) {
+  std::uniform_real_distribution<double> perturbation(-kLegPerturbation, kLegPerturbation);
+  State s;
+  s.q = info.neutralConfiguration();
+  s.q[2] = pelvis_height_m - kStandingDepth;
+  for (int j = 0; j < info.nj; ++j) {
+    if (!isLegJoint(info.joint_names[j])) continue;
+    double& qj = s.q[info.configurationIndex(j)];
+    qj = std::min(std::max(qj + perturbation(rng), info.q_lower[j]), info.q_upper[j]);
+  }
+  s.v = Eigen::VectorXd::Zero(info.nv);
+  s.tau_J = Eigen::VectorXd::Zero(info.nj);
+  return s;
+}
+
+struct Context {
+  std::unique_ptr<IDynamicsModel> model;
+  int l_foot = -1;
+  int r_foot = -1;
+  Eigen::Vector3d p_FootSole = Eigen::Vector3d::Zero();  // sole centre, foot frame
+  std::vector<State> random_states;
+  std::vector<State> standing_states;
+  std::size_t standing_contacts_min = 0;
+  std::size_t standing_contacts_max = 0;
+};
+
+Context makeContext() {
+  Context c;
+  c.model = dynfilter::ode_backend::loadOdeModel(sourcePath("models/human_figure.urdf"),
+                                                 dynfilter::ModelOptions{});
+  const ModelInfo& info = c.model->info();
+  c.l_foot = info.findBody("l_foot");
+  c.r_foot = info.findBody("r_foot");
+  if (c.l_foot < 0 || c.r_foot < 0) throw std::runtime_error("human figure has no l_foot/r_foot");
+
+  std::ifstream in(sourcePath("models/human_figure.json"));
+  if (!in) throw std::runtime_error("cannot open models/human_figure.json");
+  const nlohmann::json meta = nlohmann::json::parse(in);
+  const auto& centre = meta.at("foot_sole").at("center_in_foot_frame_m");
+  c.p_FootSole = Eigen::Vector3d(centre.at(0).get<double>(), centre.at(1).get<double>(),
+                                 centre.at(2).get<double>());
+  const double pelvis_height_m = meta.at("standing_pelvis_height_m").get<double>();
+
+  std::mt19937 rng(kSeed);
+  for (std::size_t k = 0; k < kNumStates; ++k) c.random_states.push_back(randomState(info, rng));
+  for (std::size_t k = 0; k < kNumStates; ++k)
+    c.standing_states.push_back(standingState(info, pelvis_height_m, rng));
+
+  // How many contacts the standing states produce (reported in the context header).
+  ContactList contacts;
+  c.standing_contacts_min = contacts.capacity();
+  for (const State& s : c.standing_states) {
+    c.model->setState(s.q, s.v);
+    c.model->detectContacts(contacts);
+    c.standing_contacts_min = std::min(c.standing_contacts_min, contacts.size());
+    c.standing_contacts_max = std::max(c.standing_contacts_max, contacts.size());
+  }
+  return c;
+}
+
+Context& context() {
+  static Context c = makeContext();
+  return c;
+}
+
+const State& next(const std::vector<State>& states, std::size_t& k) {
+  const State& s = states[k];
+  k = (k + 1) & (kNumStates - 1);
+  return s;
+}
+
+void BM_SetState(benchmark::State& st) {
+  Context& c = context();
+  IDynamicsModel& model = *c.model;
+  std::size_t k = 0;
+  for (auto _ : st) {
+    const State& s = next(c.random_states, k);
+    model.setState(s.q, s.v);
+    benchmark::DoNotOptimize(model.q().data());
+    benchmark::ClobberMemory();
+  }
+}
+
+// Σ J_kᵀ M_k J_k over the ODE bodies.
+void BM_MassMatrix(benchmark::State& st) {
+  Context& c = context();
+  IDynamicsModel& model = *c.model;
+  Eigen::MatrixXd A(model.nv(), model.nv());
+  std::size_t k = 0;
+  for (auto _ : st) {
+    const State& s = next(c.random_states, k);
+    model.setState(s.q, s.v);
+    model.massMatrix(A);
+    benchmark::DoNotOptimize(A.data());
+    benchmark::ClobberMemory();
+  }
+}
+
+void BM_Bias(benchmark::State& st) {
+  Context& c = context();
+  IDynamicsModel& model = *c.model;
+  Eigen::VectorXd b(model.nv());
+  std::size_t k = 0;
+  for (auto _ : st) {
+    const State& s = next(c.random_states, k);
+    model.setState(s.q, s.v);
+    model.bias(b);
+    benchmark::DoNotOptimize(b.data());
+    benchmark::ClobberMemory();
+  }
+}
+
+void BM_FootJacobians(benchmark::State& st) {
+  Context& c = context();
+  IDynamicsModel& model = *c.model;
+  dynfilter::Matrix6Xd J_left(6, model.nv());
+  dynfilter::Matrix6Xd J_right(6, model.nv());
+  std::size_t k = 0;
+  for (auto _ : st) {
+    const State& s = next(c.random_states, k);
+    model.setState(s.q, s.v);
+    model.pointJacobian(c.l_foot, c.p_FootSole, J_left);
+    model.pointJacobian(c.r_foot, c.p_FootSole, J_right);
+    benchmark::DoNotOptimize(J_left.data());
+    benchmark::DoNotOptimize(J_right.data());
+    benchmark::ClobberMemory();
+  }
+}
+
+void BM_FootJacobianDotTimesV(benchmark::State& st) {
+  Context& c = context();
+  IDynamicsModel& model = *c.model;
+  dynfilter::Vector6d a_left;
+  dynfilter::Vector6d a_right;
+  std::size_t k = 0;
+  for (auto _ : st) {
+    const State& s = next(c.random_states, k);
+    model.setState(s.q, s.v);
+    a_left = model.pointJacobianDotTimesV(c.l_foot, c.p_FootSole);
+    a_right = model.pointJacobianDotTimesV(c.r_foot, c.p_FootSole);
+    benchmark::DoNotOptimize(a_left.data());
+    benchmark::DoNotOptimize(a_right.data());
+    benchmark::ClobberMemory();
+  }
+}
+
+void BM_ForwardDynamics(benchmark::State& st) {
+  Context& c = context();
+  IDynamicsModel& model = *c.model;
+  Eigen::VectorXd vdot(model.nv());
+  std::size_t k = 0;
+  for (auto _ : st) {
+    const State& s = next(c.random_states, k);
+    model.setState(s.q, s.v);
+    model.forwardDynamics(s.tau_J, vdot);
+    benchmark::DoNotOptimize(vdot.data());
+    benchmark::ClobberMemory();
+  }
+}
+
+void BM_DetectContacts(benchmark::State& st) {
+  Context& c = context();
+  IDynamicsModel& model = *c.model;
+  ContactList contacts;
+  std::size_t k = 0;
+  double total_contacts = 0.0;
+  double total_overflow = 0.0;
+  for (auto _ : st) {
+    const State& s = next(c.standing_states, k);
+    model.setState(s.q, s.v);
+    model.detectContacts(contacts);
+    benchmark::DoNotOptimize(contacts.begin());
+    benchmark::ClobberMemory();
+    total_contacts += static_cast<double>(contacts.size());
+    total_overflow += static_cast<double>(contacts.overflow());
+  }
+  st.counters["contacts"] = benchmark::Counter(total_contacts, benchmark::Counter::kAvgIterations);
+  st.counters["overflow"] = benchmark::Counter(total_overflow, benchmark::Counter::kAvgIterations);
+}
+
+BENCHMARK(BM_SetState)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_MassMatrix)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Bias)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_FootJacobians)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_FootJacobianDotTimesV)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ForwardDynamics)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_DetectContacts)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  try {
+    const Context& c = context();
+    const ModelInfo& info = c.model->info();
+    benchmark::AddCustomContext("model", sourcePath("models/human_figure.urdf"));
+    benchmark::AddCustomContext("backend", std::string(c.model->backendName()));
+    benchmark::AddCustomContext("nj", std::to_string(info.nj));
+    benchmark::AddCustomContext("nv", std::to_string(info.nv));
+    benchmark::AddCustomContext("states_cycled", std::to_string(kNumStates));
+    benchmark::AddCustomContext("standing_contacts",
+                                std::to_string(c.standing_contacts_min) + ".." +
+                                    std::to_string(c.standing_contacts_max));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_ode: setup failed: %s\n", e.what());
+    return 1;
+  }
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
