@@ -138,3 +138,53 @@ TEST(RealtimeLimits, CommandsAreClampedToTheUrdfEffortLimits) {
 
 }  // namespace
 }  // namespace dynfilter::realtime
+
+#include "dynfilter/realtime/replay_player.hpp"
+
+namespace dynfilter::realtime {
+namespace {
+
+Clip line(const std::string& name, double slope, int frames, double rate) {
+  Clip c;
+  c.name = name;
+  for (int k = 0; k < frames; ++k) {
+    ReferenceFrame f(1, 1);
+    f.time_s = 10.0 + k / rate;  // clips keep their own time stamps
+    f.q << slope * k / rate;
+    f.v << slope;
+    f.vdot << 0.0;
+    c.frames.push_back(f);
+  }
+  return c;
+}
+
+TEST(ReplayPlayer, SpeedOffsetLoopAndSwitching) {
+  ReplayOptions options;
+  options.speed = 2.0;
+  options.start_offset_s = 0.5;
+  options.loop = true;
+  ReplayPlayer player({line("up", 1.0, 121, 120.0), line("down", -3.0, 61, 120.0)}, options,
+                      false);
+  ReferenceFrame out(1, 1);
+  ASSERT_TRUE(player.frameAt(0.1, out));  // motion time 0.5 + 2 × 0.1 = 0.7 s
+  EXPECT_NEAR(out.q[0], 0.7, 1e-12);
+  EXPECT_NEAR(out.v[0], 2.0, 1e-12);  // velocity scales with speed
+  ASSERT_TRUE(player.frameAt(0.4, out));  // 1.3 s → looped to 0.3 s
+  EXPECT_NEAR(out.q[0], 0.3, 1e-12);
+  player.switchTo(1, 1.0);
+  ASSERT_TRUE(player.frameAt(1.1, out));  // clip 1 at 0.5 + 0.2 = 0.7 s → wraps at 0.5 s: 0.2
+  EXPECT_NEAR(out.q[0], -3.0 * 0.2, 1e-12);
+  EXPECT_EQ(player.currentClip(), 1);
+}
+
+TEST(ReplayPlayer, ANonLoopingClipEnds) {
+  ReplayPlayer player({line("up", 1.0, 121, 120.0)}, ReplayOptions{}, false);
+  ReferenceFrame out(1, 1);
+  EXPECT_TRUE(player.frameAt(0.99, out));
+  EXPECT_FALSE(player.frameAt(1.01, out));
+  EXPECT_NEAR(out.q[0], 1.0, 1e-12);
+  EXPECT_THROW(ReplayPlayer({}, ReplayOptions{}, false), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace dynfilter::realtime
