@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Installs everything dynfilter builds and tests with, from Debian 12 packages.
 # Idempotent; uses sudo when not run as root.
+# Also makes a Python venv (default build/venv, or $DYNFILTER_LCM_VENV) holding the `lcm`
+# wheel: its lcm-spy starts on Java 17 (Debian's does not), and its lcm.jar and Python
+# binding are what the Java and Python message types are used with (README "LCM messages").
 set -euo pipefail
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
@@ -11,7 +14,7 @@ packages=(
   libdart-dev libdart-collision-bullet-dev libbullet-dev
   libode-dev
   liburdfdom-dev liburdfdom-headers-dev libconsole-bridge-dev libtinyxml2-dev
-  liblcm-dev libglib2.0-dev
+  liblcm-dev liblcm-bin libglib2.0-dev default-jdk-headless python3-venv
   libgtest-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libyaml-cpp-dev
 )
@@ -23,4 +26,20 @@ if [ ${#missing[@]} -gt 0 ]; then
   echo "installing: ${missing[*]}"
   $SUDO apt-get update -qq
   $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+# The lcm wheel in a venv (pip refuses to install into Debian's system Python, PEP 668).
+LCM_WHEEL_VERSION=1.5.3
+repo="$(cd "$(dirname "$0")/.." && pwd)"
+venv="${DYNFILTER_LCM_VENV:-$repo/build/venv}"
+if ! "$venv/bin/python" -c "import importlib.metadata as m, sys; sys.exit(m.version('lcm') != '$LCM_WHEEL_VERSION')" 2>/dev/null; then
+  echo "installing the lcm $LCM_WHEEL_VERSION wheel into $venv"
+  python=/usr/bin/python3
+  [ -x "$python" ] || python="$(command -v python3)"
+  # Only the Java/Python tooling needs it (the C++ build and tests do not): warn, go on.
+  if ! { "$python" -m venv "$venv" &&
+         "$venv/bin/python" -m pip install -q --disable-pip-version-check "lcm==$LCM_WHEEL_VERSION"; }; then
+    echo "warning: could not install the lcm wheel into $venv: no dynfilter_lcmtypes.jar," \
+         "no tools/lcm-spy.sh (README, \"LCM messages\")" >&2
+  fi
 fi

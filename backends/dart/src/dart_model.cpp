@@ -68,6 +68,9 @@ class RobotVersusEnvironmentFilter final : public dart::collision::CollisionFilt
   const BuiltRobot& robot_;
 };
 
+// Above this speed (m/s or rad/s in any coordinate) a state is treated as diverged.
+constexpr double kMaxSimulatedSpeed = 1e3;
+
 class DartModel final : public IDynamicsModel {
  public:
   DartModel(const urdf::RobotDescription& robot, const ModelOptions& options,
@@ -240,6 +243,9 @@ class DartModel final : public IDynamicsModel {
     if (!(dt_s > 0.0) || !std::isfinite(dt_s))
       throw std::invalid_argument("simulateStep: dt must be positive and finite");
     if (world_->getTimeStep() != dt_s) world_->setTimeStep(dt_s);
+    // DART asserts (aborts) on NaN inside a step; refuse input that would get there.
+    if (!tau_J.allFinite() || !(v_.cwiseAbs().maxCoeff() < kMaxSimulatedSpeed))
+      throw std::runtime_error("DART simulation refused: non-finite torque or runaway velocity");
     setJointForces(tau_J);
     world_->step();
     robot_.skeleton->resetAccelerations();

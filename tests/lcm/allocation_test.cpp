@@ -1,0 +1,136 @@
+// No heap allocation when receiving and sending in steady state: the same joint order as
+// the previous message (any order), reused messages and buffers. This executable replaces
+// the global operator new to count allocations while a flag is set.
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include <gtest/gtest.h>
+
+#include "lcm/lcm_test_support.hpp"
+
+namespace {
+std::atomic<bool> g_counting{false};
+std::atomic<long> g_allocations{0};
+
+struct Counting {
+  Counting() { g_allocations = 0; g_counting = true; }
+  ~Counting() { g_counting = false; }
+};
+}  // namespace
+
+void* operator new(std::size_t size) {
+  if (g_counting.load(std::memory_order_relaxed)) ++g_allocations;
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace dynfilter::messages {
+namespace {
+
+TEST(LcmAllocation, ReceivingFramesInARepeatedOrderDoesNotAllocate) {
+  const ModelInfo& info = test::humanInfo();
+  std::mt19937 rng(31);
+  // Frames with the names in a fixed shuffled order, encoded beforehand.
+  std::vector<std::vector<std::uint8_t>> frames;
+  std::vector<int> order(static_cast<std::size_t>(info.nj));
+  for (int j = 0; j < info.nj; ++j) order[static_cast<std::size_t>(j)] = (j * 7) % info.nj;
+  for (int k = 0; k < 50; ++k) {
+    reference_frame_t msg;
+    fillReferenceFrame(info, test::randomFrame(info, rng, 0.01 * k), 10000 * k, k, msg);
+    reference_frame_t shuffled = msg;
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      const auto j = static_cast<std::size_t>(order[i]);
+      shuffled.joint_names[i] = msg.joint_names[j];
+      shuffled.q[i] = msg.q[j];
+      shuffled.qd[i] = msg.qd[j];
+      shuffled.qdd[i] = msg.qdd[j];
+    }
+    frames.push_back(test::encoded(shuffled));
+  }
+  ReferenceFrameReader reader(info);
+  ReferenceInput input(info);
+  ASSERT_TRUE(reader.read(frames[0].data(), frames[0].size(), input).ok());  // warm-up: names cached
+  long allocations = 0;
+  int accepted = 0;
+  {
+    Counting counting;
+    for (std::size_t k = 1; k < frames.size(); ++k)
+      accepted += reader.read(frames[k].data(), frames[k].size(), input).ok() ? 1 : 0;
+    // A rejected frame does not allocate either.
+    accepted += reader.read(frames[3].data(), frames[3].size(), input).ok() ? 1 : 0;  // backwards
+    allocations = g_allocations;
+  }
+  EXPECT_EQ(accepted, 49);
+  EXPECT_EQ(allocations, 0);
+}
+
+TEST(LcmAllocation, ReceivingRobotStatesDoesNotAllocate) {
+  const ModelInfo& info = test::humanInfo();
+  std::mt19937 rng(32);
+  std::vector<std::vector<std::uint8_t>> states;
+  for (int k = 0; k < 20; ++k) {
+    Eigen::VectorXd q, v;
+    randomState(info, rng, 1.0, q, v);
+    robot_state_t msg;
+    fillRobotState(info, 1000 * k, q, v, nullptr, msg);
+    states.push_back(test::encoded(msg));
+  }
+  RobotStateReader reader(info);
+  RobotStateInput input(info);
+  ASSERT_TRUE(reader.read(states[0].data(), states[0].size(), input).ok());
+  long allocations = 0;
+  {
+    Counting counting;
+    for (std::size_t k = 1; k < states.size(); ++k) (void)reader.read(states[k].data(), states[k].size(), input);
+    allocations = g_allocations;
+  }
+  EXPECT_EQ(input.utime, 19000);
+  EXPECT_EQ(allocations, 0);
+}
+
+TEST(LcmAllocation, FillingAndEncodingTheOutputsDoesNotAllocate) {
+  const ModelInfo& info = test::humanInfo();
+  std::mt19937 rng(33);
+  FilterOutput out(info.nq, info.nv, info.nj, 8);
+  randomState(info, rng, 1.0, out.q, out.v);
+  out.num_contacts = 2;
+  out.contacts[0].body = 3;
+  out.contacts[1].body = static_cast<int>(info.body_names.size()) - 1;
+  torque_command_t command;
+  contact_state_t contacts;
+  filter_status_t status;
+  std::vector<std::uint8_t> buffer;
+  StatusReport report;
+  report.detail = "unknown joint name";
+  const auto tick = [&](int k) {
+    out.status = (k % 2 == 0) ? kStatusOk : (kStatusImpact | kStatusTorqueClamped);
+    out.num_contacts = 1 + k % 2;
+    CommandStamps stamps;
+    stamps.utime = k;
+    bool ok = fillTorqueCommand(info, out, stamps, out.status, nullptr, command);
+    ok = ok && encodeMessage(command, buffer) > 0;
+    fillContactState(info, out, k, contacts);
+    ok = ok && encodeMessage(contacts, buffer) > 0;
+    report.utime = k;
+    fillFilterStatus(out, report, status);
+    ok = ok && encodeMessage(status, buffer) > 0;
+    return ok;
+  };
+  ASSERT_TRUE(tick(0));
+  ASSERT_TRUE(tick(1));  // warm-up: every vector and string at its size
+  long allocations = 0;
+  int ok = 0;
+  {
+    Counting counting;
+    for (int k = 2; k < 50; ++k) ok += tick(k) ? 1 : 0;
+    allocations = g_allocations;
+  }
+  EXPECT_EQ(ok, 48);
+  EXPECT_EQ(allocations, 0);
+}
+
+}  // namespace
+}  // namespace dynfilter::messages

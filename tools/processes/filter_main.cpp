@@ -1,0 +1,233 @@
+// dynfilter — the real-time filter process.
+//
+// Subscribes to reference frames (and, with --use-measured-state, the robot's state),
+// ticks the filter at a fixed rate against the latest reference, and publishes a torque
+// command, the contact state and a status every tick. Receiving runs on its own thread;
+// the control tick does not allocate and does not block on I/O. SIGINT/SIGTERM stop it.
+#include <cstdio>
+#include <exception>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <lcm/lcm-cpp.hpp>
+
+#include "dynfilter/backends/make_model.hpp"
+#include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/io/config.hpp"
+#include "dynfilter/lcm/messages.hpp"
+#include "dynfilter/realtime/realtime_filter.hpp"
+#include "process_support.hpp"
+
+namespace {
+
+using namespace dynfilter;
+namespace msg = dynfilter::messages;
+
+// What the receive thread hands to the control thread: validated frames in a small ring
+// (the oldest is dropped when full) and the latest robot state. Preallocated.
+class Inbox {
+ public:
+  Inbox(const ModelInfo& info, int capacity) : ring_(static_cast<std::size_t>(capacity), msg::ReferenceInput(info)), state_(info) {}
+
+  void pushReference(const msg::ReferenceInput& in) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++received_;
+    if (size_ == static_cast<int>(ring_.size())) {
+      head_ = (head_ + 1) % static_cast<int>(ring_.size());
+      --size_;
+      ++dropped_;
+    }
+    ring_[static_cast<std::size_t>((head_ + size_) % static_cast<int>(ring_.size()))] = in;
+    ++size_;
+  }
+  void reject(const char* reason) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++received_;
+    ++rejected_;
+    last_reject_ = reason;
+  }
+  void pushState(const msg::RobotStateInput& in) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_ = in;
+    state_fresh_ = true;
+  }
+
+  // Control thread: hands every pending frame and a fresh state to the filter.
+  template <typename OnFrame, typename OnState>
+  void drain(OnFrame&& on_frame, OnState&& on_state) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (; size_ > 0; --size_, head_ = (head_ + 1) % static_cast<int>(ring_.size()))
+      on_frame(ring_[static_cast<std::size_t>(head_)]);
+    if (state_fresh_) on_state(state_);
+    state_fresh_ = false;
+  }
+  void counts(long& received, long& rejected, long& dropped, const char*& last_reject) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    received = received_;
+    rejected = rejected_;
+    dropped = dropped_;
+    last_reject = last_reject_;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<msg::ReferenceInput> ring_;
+  int head_ = 0, size_ = 0;
+  msg::RobotStateInput state_;
+  bool state_fresh_ = false;
+  long received_ = 0, rejected_ = 0, dropped_ = 0;
+  const char* last_reject_ = nullptr;
+};
+
+// Receive-thread handlers: decode into reused objects, validate, hand over.
+struct Receiver {
+  Receiver(const ModelInfo& info, Inbox& target)
+      : references(info), states(info), reference_in(info), state_in(info), inbox(target) {}
+  void onReference(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+    const msg::MessageCheck check = references.read(rbuf->data, rbuf->data_size, reference_in);
+    if (check.ok()) {
+      inbox.pushReference(reference_in);
+    } else {
+      inbox.reject(check.reason);
+      std::fprintf(stderr, "dynfilter: reference frame rejected: %s\n", check.reason);
+    }
+  }
+  void onState(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+    const msg::MessageCheck check = states.read(rbuf->data, rbuf->data_size, state_in);
+    if (check.ok()) inbox.pushState(state_in);
+    else std::fprintf(stderr, "dynfilter: robot state rejected: %s\n", check.reason);
+  }
+  msg::ReferenceFrameReader references;
+  msg::RobotStateReader states;
+  msg::ReferenceInput reference_in;
+  msg::RobotStateInput state_in;
+  Inbox& inbox;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"dynfilter: the real-time dynamics filter over LCM."};
+  std::string model_path = DYNFILTER_DEFAULT_MODEL, backend = "dart", config_path, url;
+  std::string reference_channel = msg::kReferenceChannel, state_channel = msg::kRobotStateChannel;
+  std::string command_channel = msg::kTorqueCommandChannel,
+              contact_channel = msg::kContactStateChannel, status_channel = msg::kFilterStatusChannel;
+  double rate_hz = 1000.0, duration_s = 0.0;
+  realtime::RealtimeOptions rt_options;
+  app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
+  app.add_option("--backend", backend, "dart or ode")->check(CLI::IsMember(availableBackends()));
+  app.add_option("-c,--config", config_path, "YAML configuration");
+  app.add_option("--rate-hz", rate_hz, "control rate")->check(CLI::Range(1.0, 10000.0));
+  app.add_option("--duration-s", duration_s, "stop after this long (0: until SIGINT/SIGTERM)");
+  app.add_flag("--use-measured-state", rt_options.use_measured_state,
+               "start each tick from the robot's measured state");
+  app.add_option("--stale-timeout-s", rt_options.stale_timeout_s, "hold posture after this silence");
+  app.add_option("--reference-delay-s", rt_options.reference_delay_s,
+                 "play the reference this far behind its newest frame");
+  bool fixed_base = false;
+  app.add_flag("--fixed-base", fixed_base,
+               "plan the robot with its root welded and no ground (a robot on a test stand)");
+  app.add_option("--lcm-url", url, "LCM URL (default: $LCM_DEFAULT_URL)");
+  app.add_option("--reference-channel", reference_channel);
+  app.add_option("--state-channel", state_channel);
+  app.add_option("--command-channel", command_channel);
+  app.add_option("--contact-channel", contact_channel);
+  app.add_option("--status-channel", status_channel);
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    io::FilterConfig config = config_path.empty() ? io::FilterConfig{} : io::loadFilterConfig(config_path);
+    config.filter.dt_s = 1.0 / rate_hz;
+    ModelOptions model_options;
+    model_options.environment = config.environment;
+    if (fixed_base) {
+      model_options.floating_base = false;
+      model_options.environment.has_ground = false;
+    }
+    auto model = loadModel(backend, model_path, model_options);
+    const ModelInfo& info = model->info();
+
+    ReferenceFrame hold(info.nq, info.nv);
+    hold.q = info.neutralConfiguration();
+    if (info.floating_base) hold.q[2] = standingBaseHeight(*model, hold.q);
+    realtime::RealtimeFilter rt(*model, config.filter, rt_options, hold);
+
+    lcm::LCM lcm(url);
+    if (!lcm.good()) throw std::runtime_error("cannot open LCM (" + (url.empty() ? std::string("default URL") : url) + ")");
+    Inbox inbox(info, 16);
+    Receiver receiver(info, inbox);
+    lcm.subscribe(reference_channel, &Receiver::onReference, &receiver);
+    if (rt_options.use_measured_state) lcm.subscribe(state_channel, &Receiver::onState, &receiver);
+
+    processes::installStopHandlers();
+    std::thread receive_thread([&lcm] {
+      while (!processes::g_stop) lcm.handleTimeout(20);
+    });
+    std::fprintf(stderr, "dynfilter: %s (%s, %d joints) at %.0f Hz; %s\n", info.name.c_str(),
+                 backend.c_str(), info.nj, rate_hz, processes::tryRealtimeScheduling());
+
+    torque_command_t command;
+    contact_state_t contacts;
+    filter_status_t status;
+    std::vector<std::uint8_t> buffer;
+    msg::CommandStamps stamps;
+    msg::StatusReport report;
+    long missed = 0, received = 0, rejected = 0, dropped = 0;
+    const char* last_reject = nullptr;
+    std::int64_t state_utime = 0;
+    processes::Ticker ticker(rate_hz);
+    const double start = processes::nowSeconds();
+    while (!processes::g_stop && (duration_s <= 0.0 || processes::nowSeconds() - start < duration_s)) {
+      missed += ticker.wait();
+      const double now = processes::nowSeconds();
+      inbox.drain(
+          [&](const msg::ReferenceInput& in) {
+            if (rt.addReference(in.frame, now)) {
+              stamps.reference_utime = in.utime;
+              stamps.reference_sequence = in.sequence;
+            }
+          },
+          [&](const msg::RobotStateInput& s) {
+            rt.addMeasuredState(s.q, s.v, now);
+            state_utime = s.utime;
+          });
+      const FilterOutput& out = rt.tick(now);
+      stamps.utime = processes::nowMicros();
+      stamps.robot_state_utime = rt_options.use_measured_state ? state_utime : 0;
+      msg::fillTorqueCommand(info, out, stamps, rt.status(), &rt.command(), command);
+      lcm.publish(command_channel, buffer.data(), msg::encodeMessage(command, buffer));
+      msg::fillContactState(info, out, stamps.utime, contacts);
+      lcm.publish(contact_channel, buffer.data(), msg::encodeMessage(contacts, buffer));
+      inbox.counts(received, rejected, dropped, last_reject);
+      const auto& c = rt.counters();
+      report.utime = stamps.utime;
+      report.extra_status = rt.status();
+      report.detail = last_reject;
+      report.latency_us = stamps.robot_state_utime ? static_cast<double>(stamps.utime - state_utime) : 0.0;
+      report.frames_received = received;
+      report.frames_accepted = static_cast<std::int64_t>(c.frames_accepted);
+      report.frames_rejected = rejected + static_cast<std::int64_t>(c.frames_rejected);
+      report.frames_dropped = dropped;
+      report.ticks = static_cast<std::int64_t>(c.ticks);
+      report.missed_ticks = missed;
+      report.reseeds = static_cast<std::int64_t>(c.reseeds);
+      msg::fillFilterStatus(out, report, status);
+      lcm.publish(status_channel, buffer.data(), msg::encodeMessage(status, buffer));
+    }
+    processes::g_stop = true;
+    receive_thread.join();
+    std::fprintf(stderr,
+                 "dynfilter: stopped after %llu ticks, %ld missed; frames received %ld, accepted "
+                 "%llu, rejected %lld, dropped %ld\n",
+                 static_cast<unsigned long long>(rt.counters().ticks), missed, received,
+                 static_cast<unsigned long long>(rt.counters().frames_accepted),
+                 static_cast<long long>(report.frames_rejected), dropped);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dynfilter: error: %s\n", e.what());
+    return 2;
+  }
+}

@@ -1,0 +1,71 @@
+#include "process_support.hpp"
+
+#include <csignal>
+#include <cmath>
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+
+namespace dynfilter::processes {
+
+std::atomic<bool> g_stop{false};
+
+namespace {
+void onSignal(int) { g_stop = true; }
+
+timespec toTimespec(double s) {
+  timespec t;
+  t.tv_sec = static_cast<time_t>(std::floor(s));
+  t.tv_nsec = static_cast<long>((s - std::floor(s)) * 1e9);
+  return t;
+}
+double toSeconds(const timespec& t) { return static_cast<double>(t.tv_sec) + 1e-9 * t.tv_nsec; }
+}  // namespace
+
+void installStopHandlers() {
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+}
+
+double nowSeconds() {
+  timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return toSeconds(t);
+}
+
+std::int64_t nowMicros() {
+  timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return static_cast<std::int64_t>(t.tv_sec) * 1000000 + t.tv_nsec / 1000;
+}
+
+Ticker::Ticker(double rate_hz) : period_s_(1.0 / rate_hz) {
+  clock_gettime(CLOCK_MONOTONIC, &next_);
+}
+
+long Ticker::wait() {
+  double next = toSeconds(next_) + period_s_;
+  long missed = 0;
+  const double now = nowSeconds();
+  if (now > next + period_s_) {  // late by more than a period: skip, don't burst
+    missed = static_cast<long>(std::floor((now - next) / period_s_));
+    next += static_cast<double>(missed) * period_s_;
+  }
+  next_ = toTimespec(next);
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next_, nullptr) != 0 && !g_stop) {
+  }
+  return missed;
+}
+
+const char* tryRealtimeScheduling() {
+  sched_param p{};
+  p.sched_priority = 50;
+  const bool fifo = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+  const bool locked = mlockall(MCL_CURRENT | MCL_FUTURE) == 0;
+  if (fifo && locked) return "SCHED_FIFO 50, memory locked";
+  if (fifo) return "SCHED_FIFO 50 (memory not locked)";
+  return "normal scheduling (no permission for SCHED_FIFO)";
+}
+
+}  // namespace dynfilter::processes
