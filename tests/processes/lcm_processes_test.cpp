@@ -235,6 +235,15 @@ TEST(LcmProcesses, BadReferenceFramesAreRejectedAndTheFilterKeepsPublishing) {
     EXPECT_EQ(monitor.bad_torques, 0);
     EXPECT_GT(monitor.command_times.size(), 2000u);
     EXPECT_EQ(monitor.non_finite, 0);
+    // No frame for 0.3 s > the 0.25 s timeout: holding, and saying so.
+    EXPECT_TRUE(monitor.last_status.status & kStatusStaleReference) << monitor.last_status.reason;
+  }
+  // A frame brings it back.
+  send(goodFrame());
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  {
+    std::lock_guard<std::mutex> lock(monitor.mutex);
+    EXPECT_FALSE(monitor.last_status.status & kStatusStaleReference) << monitor.last_status.reason;
   }
   EXPECT_EQ(filter.stop(), 0);
 }
