@@ -4,6 +4,8 @@
 // ticks the filter at a fixed rate against the latest reference, and publishes a torque
 // command, the contact state and a status every tick. Receiving runs on its own thread;
 // the control tick does not allocate and does not block on I/O. SIGINT/SIGTERM stop it.
+#include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <exception>
 #include <mutex>
@@ -50,9 +52,24 @@ class Inbox {
     last_reject_ = reason;
   }
   void pushState(const msg::RobotStateInput& in) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (state_fresh_) ++states_overwritten_;  // the control thread never saw the last one
+      state_ = in;
+      state_fresh_ = true;
+    }
+    state_arrived_.notify_one();
+  }
+  // Control thread, state-triggered mode: waits until a state arrives unseen (true) or
+  // the timeout passes (false).
+  bool waitForState(double timeout_s) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return state_arrived_.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                                   [this] { return state_fresh_; });
+  }
+  long statesOverwritten() {
     std::lock_guard<std::mutex> lock(mutex_);
-    state_ = in;
-    state_fresh_ = true;
+    return states_overwritten_;
   }
 
   // Control thread: hands every pending frame and a fresh state to the filter.
@@ -74,6 +91,8 @@ class Inbox {
 
  private:
   std::mutex mutex_;
+  std::condition_variable state_arrived_;
+  long states_overwritten_ = 0;
   std::vector<msg::ReferenceInput> ring_;
   int head_ = 0, size_ = 0;
   msg::RobotStateInput state_;
@@ -123,7 +142,9 @@ int main(int argc, char** argv) {
   app.add_option("--rate-hz", rate_hz, "control rate")->check(CLI::Range(1.0, 10000.0));
   app.add_option("--duration-s", duration_s, "stop after this long (0: until SIGINT/SIGTERM)");
   app.add_flag("--use-measured-state", rt_options.use_measured_state,
-               "start each tick from the robot's measured state");
+               "start each tick from the robot's measured state; the robot's state messages "
+               "then trigger the ticks (the rate becomes the robot's), falling back to "
+               "--rate-hz when they stop");
   app.add_option("--stale-timeout-s", rt_options.stale_timeout_s, "hold posture after this silence");
   app.add_option("--reference-delay-s", rt_options.reference_delay_s,
                  "play the reference this far behind its newest frame");
@@ -163,7 +184,9 @@ int main(int argc, char** argv) {
     if (rt_options.use_measured_state) lcm.subscribe(state_channel, &Receiver::onState, &receiver);
 
     processes::installStopHandlers();
+    // Receiving outranks the control loop: messages must not wait behind it.
     std::thread receive_thread([&lcm] {
+      processes::tryRealtimeScheduling(51);
       while (!processes::g_stop) lcm.handleTimeout(20);
     });
     std::fprintf(stderr, "dynfilter: %s (%s, %d joints) at %.0f Hz; %s\n", info.name.c_str(),
@@ -180,8 +203,16 @@ int main(int argc, char** argv) {
     std::int64_t state_utime = 0;
     processes::Ticker ticker(rate_hz);
     const double start = processes::nowSeconds();
+    const bool state_triggered = rt_options.use_measured_state;
     while (!processes::g_stop && (duration_s <= 0.0 || processes::nowSeconds() - start < duration_s)) {
-      missed += ticker.wait();
+      // Ticks follow the robot's state messages when the loop is closed on them (lowest
+      // latency: the command answers each state at once); otherwise the own clock.
+      if (state_triggered) {
+        if (!inbox.waitForState(2.0 * ticker.period())) ticker.wait();
+        missed = inbox.statesOverwritten();
+      } else {
+        missed += ticker.wait();
+      }
       const double now = processes::nowSeconds();
       inbox.drain(
           [&](const msg::ReferenceInput& in) {

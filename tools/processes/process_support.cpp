@@ -58,13 +58,13 @@ long Ticker::wait() {
   return missed;
 }
 
-const char* tryRealtimeScheduling() {
+const char* tryRealtimeScheduling(int priority) {
   sched_param p{};
-  p.sched_priority = 50;
+  p.sched_priority = priority;
   const bool fifo = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
   const bool locked = mlockall(MCL_CURRENT | MCL_FUTURE) == 0;
-  if (fifo && locked) return "SCHED_FIFO 50, memory locked";
-  if (fifo) return "SCHED_FIFO 50 (memory not locked)";
+  if (fifo && locked) return "SCHED_FIFO, memory locked";
+  if (fifo) return "SCHED_FIFO (memory not locked)";
   return "normal scheduling (no permission for SCHED_FIFO)";
 }
 

@@ -28,7 +28,8 @@ class Ticker {
   timespec next_{};
 };
 
-/// Best effort: real-time priority and locked memory when permitted; returns a note.
-const char* tryRealtimeScheduling();
+/// Best effort: real-time priority @p priority (SCHED_FIFO) for the calling thread and
+/// locked memory when permitted; returns a note.
+const char* tryRealtimeScheduling(int priority = 50);
 
 }  // namespace dynfilter::processes

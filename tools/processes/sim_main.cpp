@@ -122,7 +122,9 @@ int main(int argc, char** argv) {
     CommandInbox inbox(info);
     lcm.subscribe(command_channel, &CommandInbox::onCommand, &inbox);
     processes::installStopHandlers();
+    // Receiving outranks the control loop: messages must not wait behind it.
     std::thread receive_thread([&lcm] {
+      processes::tryRealtimeScheduling(51);
       while (!processes::g_stop) lcm.handleTimeout(20);
     });
     std::fprintf(stderr, "dynfilter-sim: %s on %s at %.0f Hz; %s\n", info.name.c_str(),
