@@ -3,7 +3,8 @@
 # Idempotent; uses sudo when not run as root.
 # Also makes a Python venv (default build/venv, or $DYNFILTER_LCM_VENV) holding the `lcm`
 # wheel: its lcm-spy starts on Java 17 (Debian's does not), and its lcm.jar and Python
-# binding are what the Java and Python message types are used with (README "LCM messages").
+# binding are what the Java and Python message types are used with (README "LCM messages"),
+# and matplotlib and numpy for tools/plot_lcm_log.py.
 set -euo pipefail
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
@@ -41,5 +42,18 @@ if ! "$venv/bin/python" -c "import importlib.metadata as m, sys; sys.exit(m.vers
          "$venv/bin/python" -m pip install -q --disable-pip-version-check "lcm==$LCM_WHEEL_VERSION"; }; then
     echo "warning: could not install the lcm wheel into $venv: no dynfilter_lcmtypes.jar," \
          "no tools/lcm-spy.sh (README, \"LCM messages\")" >&2
+  fi
+fi
+# numpy and matplotlib in the same venv, for tools/plot_lcm_log.py (README "Plotting a log").
+MATPLOTLIB_VERSION=3.8.4
+NUMPY_VERSION=1.26.4
+if [ -x "$venv/bin/python" ] &&
+   ! "$venv/bin/python" -c "import importlib.metadata as m, sys; sys.exit(m.version('matplotlib') != '$MATPLOTLIB_VERSION' or m.version('numpy') != '$NUMPY_VERSION')" 2>/dev/null; then
+  echo "installing matplotlib $MATPLOTLIB_VERSION and numpy $NUMPY_VERSION into $venv"
+  # Only the log plotter needs them: warn, go on.
+  if ! "$venv/bin/python" -m pip install -q --disable-pip-version-check \
+         "matplotlib==$MATPLOTLIB_VERSION" "numpy==$NUMPY_VERSION"; then
+    echo "warning: could not install matplotlib and numpy into $venv: no tools/plot_lcm_log.py" \
+         "(README, \"Plotting a log\")" >&2
   fi
 fi

@@ -148,7 +148,10 @@ void DynamicsFilter::desiredAcceleration(const ReferenceFrame& reference) {
   }
   const Vector6d rddot_d0 = J_P_ * vdot_desired_ + drift;
   JW_ = J_P_ * task_weight_inv_.asDiagonal();
-  const Matrix6d S = JW_ * J_P_.transpose();
+  // Singularity-robust (damped) weighted pseudo-inverse: J_P may lose rank (a fixed base,
+  // a stretched chain); the damping is the solver's SR factor relative to J W⁻¹ Jᵀ's size.
+  Matrix6d S = JW_ * J_P_.transpose();
+  S.diagonal().array() += options_.solver.sr_damping * S.trace() / 6.0;
   const Eigen::LLT<Matrix6d> llt(S);
   const Vector6d s = llt.solve(rddot_desired - rddot_d0);
   vdot_desired_.noalias() += JW_.transpose() * s;

@@ -232,3 +232,32 @@ TEST(FilterTaskRows, DependentTaskRowsAreDroppedAndEq12StillHolds) {
 
 }  // namespace
 }  // namespace dynfilter
+
+namespace dynfilter {
+namespace {
+
+TEST(Filter, FixedBaseWithARankDeficientTaskPointStaysFinite) {
+  // The human figure welded at the pelvis: the chest point moves by the three waist
+  // joints only, so J_P has rank 3. The filter must still produce finite torques that
+  // hold the posture against gravity (the legs hang: their torques are small).
+  ModelOptions options;
+  options.floating_base = false;
+  options.environment.has_ground = false;
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), options);
+  const ModelInfo& info = model->info();
+  ReferenceFrame ref(info.nq, info.nv);
+  ref.q = info.neutralConfiguration();
+  ref.q[info.findJoint("l_shoulder_pitch")] = -1.0;  // an arm held forward needs torque
+  DynamicsFilter filter(*model, FilterOptions{});
+  filter.reset(ref);
+  for (int k = 0; k < 200; ++k) {
+    const FilterOutput& out = filter.step(ref);
+    ASSERT_EQ(out.status & kStatusNonFinite, 0u) << "tick " << k;
+    ASSERT_TRUE(out.tau_J.allFinite());
+  }
+  EXPECT_GT(std::abs(filter.output().tau_J[info.findJoint("l_shoulder_pitch")]), 1.0);
+  EXPECT_LT((filter.q() - ref.q).cwiseAbs().maxCoeff(), 1e-3);
+}
+
+}  // namespace
+}  // namespace dynfilter

@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include "dynfilter/core/filter_output.hpp"
 #include "dynfilter/filter_status_t.hpp"
 #include "dynfilter/lcm/messages.hpp"
 #include "dynfilter/torque_command_t.hpp"
@@ -34,12 +35,14 @@ struct Listener {
     }
     last_ticks = m->ticks;
     last_missed = m->missed_ticks;
+    if (m->status & (dynfilter::kStatusNonFinite | dynfilter::kStatusReseeded)) ++failed_ticks;
   }
   std::mutex mutex;
   long commands = 0;
   std::int64_t last_state_utime = 0;
   std::vector<double> latencies_us;
   std::int64_t first_status_ticks = -1, first_missed = 0, last_ticks = 0, last_missed = 0;
+  long failed_ticks = 0;  // non-finite solve or re-seed: the loop ran but the filter did not
 };
 
 double percentile(std::vector<double> v, double p) {
@@ -71,8 +74,9 @@ int main(int argc, char** argv) {
   std::printf("state → command latency: p50 %.0f µs, p99 %.0f µs, max %.0f µs\n",
               percentile(listener.latencies_us, 0.5), percentile(listener.latencies_us, 0.99),
               percentile(listener.latencies_us, 1.0));
-  std::printf("filter ticks %lld, missed ticks %lld during the window\n",
+  std::printf("filter ticks %lld, missed ticks %lld, failed ticks (non-finite/re-seeded) %ld\n",
               static_cast<long long>(listener.last_ticks - listener.first_status_ticks),
-              static_cast<long long>(listener.last_missed - listener.first_missed));
+              static_cast<long long>(listener.last_missed - listener.first_missed),
+              listener.failed_ticks);
   return 0;
 }

@@ -5,7 +5,8 @@
 /// Per tick, from the filter's own state (q, v):
 ///  1. collision → virtual links (virtual_links.hpp), plastic impact when a link appears;
 ///  2. joint-space feedback, Eq. 17, with the SE(3) difference for the base;
-///  3. task feedback of the point P, Eq. 18–20, with a weighted pseudo-inverse (or, with
+///  3. task feedback of the point P, Eq. 18–20, with a weighted, singularity-robust
+///     pseudo-inverse (or, with
 ///     TaskPointOptions::as_constraint_rows, as the task rows of Eq. 16);
 ///  4. Eq. 12 (or 16) solved by Eq. 21–23 (paper_solver.hpp);
 ///  5. semi-implicit Euler on the manifold: v ← v + v̇ dt, q ← q ⊕ v dt.
