@@ -152,3 +152,35 @@ TEST(Allocation, SimulatorStepAllocatesNothingInTheCore) {
 
 }  // namespace
 }  // namespace dynfilter
+
+#include "dynfilter/realtime/realtime_filter.hpp"
+
+namespace dynfilter {
+namespace {
+
+TEST(Allocation, RealtimeTickAndReferenceIntakeAllocateNothing) {
+  auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const auto frames = test::simulateStandingSway(*dart, 0.5, 1e-3);
+  MeasuredModel model(*dart);
+  realtime::RealtimeOptions options;
+  options.use_measured_state = true;
+  realtime::RealtimeFilter rt(model, FilterOptions{}, options, frames.front());
+  for (int k = 0; k < 50; ++k) {  // warm up
+    rt.addReference(frames[static_cast<std::size_t>(k)], 0.001 * k);
+    rt.tick(0.001 * k);
+  }
+  g_core_allocations = 0;
+  g_counting = true;
+  for (int k = 50; k < 450; ++k) {
+    const ReferenceFrame& f = frames[static_cast<std::size_t>(k)];
+    if (k % 8 == 0) rt.addReference(f, 0.001 * k);
+    rt.addMeasuredState(f.q, f.v, 0.001 * k);
+    rt.tick(0.001 * k);
+  }
+  g_counting = false;
+  EXPECT_EQ(g_core_allocations.load(), 0);
+  EXPECT_TRUE(rt.command().allFinite());
+}
+
+}  // namespace
+}  // namespace dynfilter
