@@ -1,0 +1,475 @@
+// Retargeting BVH clips onto the human figure (dynfilter/io/retarget.hpp).
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "dynfilter/io/retarget.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
+#include "io/io_test_support.hpp"
+#include "support/test_support.hpp"
+
+namespace dynfilter::io {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+std::unique_ptr<IDynamicsModel> humanFigure() {
+  return test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+}
+
+struct Clip {
+  const char* name;
+  const char* bvh;
+};
+const Clip kClips[] = {{"131_01", "131_01_start_walk_stop.bvh"},
+                       {"01_01", "01_01_forward_jumps.bvh"},
+                       {"10_01", "10_01_soccer_kick.bvh"}};
+
+std::string clipPath(const Clip& c) { return test::sourcePath(std::string("data/mocap/cmu/") + c.bvh); }
+std::string mappingPath(const Clip& c) {
+  return test::sourcePath(std::string("data/mocap/cmu/mappings/") + c.name + ".yaml");
+}
+
+TEST(Retarget, ShippedClipsFrameCountAndTime) {
+  auto model = humanFigure();
+  for (const Clip& c : kClips) {
+    SCOPED_TRACE(c.name);
+    const RetargetMapping mapping = readRetargetMapping(mappingPath(c));
+    BvhReadOptions options;
+    options.length_scale = mapping.length_scale;
+    const BvhMotion bvh = readBvh(clipPath(c), options);
+    const RetargetResult r = retargetBvh(bvh, mapping, *model);
+    ASSERT_EQ(static_cast<int>(r.motion.frames.size()), bvh.frameCount() - mapping.skip_frames);
+    EXPECT_EQ(r.first_bvh_frame, mapping.skip_frames);
+    EXPECT_DOUBLE_EQ(r.motion.frames[0].time_s, 0.0);
+    EXPECT_NEAR(r.motion.frames[1].time_s, bvh.frame_time_s, 1e-15);
+    EXPECT_NEAR(r.motion.frames.back().time_s,
+                (bvh.frameCount() - mapping.skip_frames - 1) * bvh.frame_time_s, 1e-9);
+    EXPECT_TRUE(r.unmapped_joints.empty());
+    ASSERT_EQ(r.limits.size(), static_cast<std::size_t>(model->info().nj));
+    for (const ReferenceFrame& f : r.motion.frames) {
+      ASSERT_EQ(f.q.size(), model->info().nq);
+      ASSERT_EQ(f.v.size(), model->info().nv);
+      ASSERT_EQ(f.vdot.size(), model->info().nv);
+      ASSERT_TRUE(f.q.allFinite() && f.v.allFinite() && f.vdot.allFinite());
+      ASSERT_NEAR(f.q.segment<4>(3).norm(), 1.0, 1e-12);
+    }
+  }
+}
+
+TEST(Retarget, WalkTravelsTwoToFourMetres) {
+  auto model = humanFigure();
+  const RetargetResult r = retargetBvhFile(clipPath(kClips[0]),
+                                           readRetargetMapping(mappingPath(kClips[0])), *model);
+  const Eigen::Vector2d d =
+      (r.motion.frames.back().q.head<2>() - r.motion.frames.front().q.head<2>());
+  std::printf("131_01 walk: horizontal pelvis travel %.3f m\n", d.norm());
+  EXPECT_GT(d.norm(), 2.0);
+  EXPECT_LT(d.norm(), 4.0);
+  // Standing at the start: pelvis at a plausible height, feet on the ground.
+  EXPECT_GT(r.motion.frames[0].q[2], 0.75);
+  EXPECT_LT(r.motion.frames[0].q[2], 1.0);
+}
+
+// Round trip: limb-segment directions of the retargeted figure (model forward kinematics)
+// against the BVH's own joint positions, converted to the figure's axes.
+TEST(Retarget, RoundTripSegmentDirections) {
+  auto model = humanFigure();
+  const ModelInfo& info = model->info();
+  // Figure segments as (proximal link, distal link): the link origins are the joint centres.
+  const std::vector<std::pair<std::string, std::string>> bones = {
+      {"l_thigh", "l_shank"},         {"l_shank", "l_foot"},         {"r_thigh", "r_shank"},
+      {"r_shank", "r_foot"},          {"l_upper_arm", "l_forearm"},  {"l_forearm", "l_hand"},
+      {"r_upper_arm", "r_forearm"},   {"r_forearm", "r_hand"}};
+  for (const Clip& c : kClips) {
+    SCOPED_TRACE(c.name);
+    const RetargetMapping mapping = readRetargetMapping(mappingPath(c));
+    BvhReadOptions options;
+    options.length_scale = mapping.length_scale;
+    const BvhMotion bvh = readBvh(clipPath(c), options);
+    const RetargetResult r = retargetBvh(bvh, mapping, *model);
+    std::map<std::string, int> bvh_of;
+    for (const RetargetSegment& s : mapping.segments) bvh_of[s.link] = bvh.findJoint(s.bvh);
+    const Eigen::Matrix3d& R_conv = r.axis_conversion;
+    std::vector<double> sum(bones.size(), 0.0), worst(bones.size(), 0.0);
+    double pelvis_err_max = 0.0;
+    int n = 0;
+    std::vector<Eigen::Isometry3d> X;
+    const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
+    for (std::size_t k = 0; k < r.motion.frames.size(); k += 25, ++n) {
+      const Eigen::VectorXd& q = r.motion.frames[k].q;
+      model->setState(q, v0);
+      bvhForwardKinematics(bvh, static_cast<int>(k) + r.first_bvh_frame, X);
+      auto bvhPos = [&](const std::string& link) {
+        Eigen::Vector3d p = R_conv * X[static_cast<std::size_t>(bvh_of.at(link))].translation();
+        p.z() += r.ground_offset_m;
+        return p;
+      };
+      // The base is the BVH's mid-hip point, same vertical offset.
+      const Eigen::Vector3d mid = 0.5 * (bvhPos("l_thigh") + bvhPos("r_thigh"));
+      pelvis_err_max = std::max(pelvis_err_max, (mid - q.head<3>()).norm());
+      for (std::size_t b = 0; b < bones.size(); ++b) {
+        const Eigen::Vector3d fig =
+            model->bodyPose(info.findBody(bones[b].second)).translation() -
+            model->bodyPose(info.findBody(bones[b].first)).translation();
+        const Eigen::Vector3d cap = bvhPos(bones[b].second) - bvhPos(bones[b].first);
+        const double angle = std::acos(std::clamp(fig.normalized().dot(cap.normalized()), -1.0, 1.0));
+        sum[b] += angle;
+        worst[b] = std::max(worst[b], angle);
+      }
+    }
+    EXPECT_LT(pelvis_err_max, 1e-9);
+    // Measured: thigh, shank, upper arm, forearm directions agree to < 3° at every sampled
+    // frame of the three clips (mostly to 1e-6°); the bound below is the brief's.
+    std::printf("%s round trip (%d frames): mean / worst angle between figure and BVH segment\n",
+                c.name, n);
+    for (std::size_t b = 0; b < bones.size(); ++b) {
+      const double mean = sum[b] / n;
+      std::printf("  %-12s -> %-10s %6.2f / %6.2f deg\n", bones[b].first.c_str(),
+                  bones[b].second.c_str(), mean / kDeg, worst[b] / kDeg);
+      EXPECT_LT(mean, 15.0 * kDeg) << bones[b].first;
+    }
+  }
+}
+
+// Feet, hands and head relative to the pelvis, figure vs BVH (proportions differ: loose
+// bounds, the numbers are printed for the record).
+TEST(Retarget, RoundTripEndEffectorsRelativeToPelvis) {
+  auto model = humanFigure();
+  const ModelInfo& info = model->info();
+  const std::vector<std::string> links = {"l_foot", "r_foot", "l_hand", "r_hand", "head"};
+  for (const Clip& c : kClips) {
+    SCOPED_TRACE(c.name);
+    const RetargetMapping mapping = readRetargetMapping(mappingPath(c));
+    BvhReadOptions options;
+    options.length_scale = mapping.length_scale;
+    const BvhMotion bvh = readBvh(clipPath(c), options);
+    const RetargetResult r = retargetBvh(bvh, mapping, *model);
+    std::map<std::string, int> bvh_of;
+    for (const RetargetSegment& s : mapping.segments) bvh_of[s.link] = bvh.findJoint(s.bvh);
+    std::vector<double> dir_sum(links.size(), 0.0), dist_sum(links.size(), 0.0);
+    int n = 0;
+    std::vector<Eigen::Isometry3d> X;
+    for (std::size_t k = 0; k < r.motion.frames.size(); k += 25, ++n) {
+      const Eigen::VectorXd& q = r.motion.frames[k].q;
+      model->setState(q, Eigen::VectorXd::Zero(info.nv));
+      bvhForwardKinematics(bvh, static_cast<int>(k) + r.first_bvh_frame, X);
+      for (std::size_t i = 0; i < links.size(); ++i) {
+        const Eigen::Vector3d fig =
+            model->bodyPose(info.findBody(links[i])).translation() - q.head<3>();
+        const Eigen::Vector3d mid =
+            0.5 * (X[static_cast<std::size_t>(bvh_of.at("l_thigh"))].translation() +
+                   X[static_cast<std::size_t>(bvh_of.at("r_thigh"))].translation());
+        const Eigen::Vector3d cap =
+            r.axis_conversion * (X[static_cast<std::size_t>(bvh_of.at(links[i]))].translation() - mid);
+        dir_sum[i] += std::acos(std::clamp(fig.normalized().dot(cap.normalized()), -1.0, 1.0));
+        dist_sum[i] += (fig - cap).norm();
+      }
+    }
+    std::printf("%s joint centres relative to the pelvis: mean direction error / distance\n",
+                c.name);
+    for (std::size_t i = 0; i < links.size(); ++i) {
+      std::printf("  %-7s %6.2f deg  %.3f m\n", links[i].c_str(), dir_sum[i] / n / kDeg,
+                  dist_sum[i] / n);
+      // Measured (mean over every 25th frame): feet ≤ 2.3°, head ≤ 10.6°, hands ≤ 25.7°
+      // (the figure's shoulders and trunk are placed differently from the actor's, and the
+      // pelvis-to-hand vector is short); distances ≤ 0.17 m.
+      const bool hand = links[i].find("hand") != std::string::npos;
+      const bool foot = links[i].find("foot") != std::string::npos;
+      EXPECT_LT(dir_sum[i] / n, (hand ? 35.0 : foot ? 5.0 : 15.0) * kDeg) << links[i];
+      EXPECT_LT(dist_sum[i] / n, 0.20) << links[i];
+    }
+  }
+}
+
+// A tiny BVH whose rest pose is the figure's q = 0 and whose channels are the figure's
+// joint chains (BVH X = figure Y, BVH Y = figure Z, BVH Z = figure X).
+constexpr const char* kSyntheticBvh = R"(HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Yrotation Zrotation Xrotation
+  JOINT LUp
+  {
+    OFFSET 0.09 0 0
+    CHANNELS 3 Yrotation Zrotation Xrotation
+    JOINT LLeg
+    {
+      OFFSET 0 -0.42 0
+      CHANNELS 1 Xrotation
+      JOINT LFoot
+      {
+        OFFSET 0 -0.44 0
+        CHANNELS 2 Xrotation Zrotation
+        End Site
+        {
+          OFFSET 0 0 0.2
+        }
+      }
+    }
+  }
+  JOINT RUp
+  {
+    OFFSET -0.09 0 0
+    CHANNELS 3 Yrotation Zrotation Xrotation
+    JOINT RLeg
+    {
+      OFFSET 0 -0.42 0
+      CHANNELS 1 Xrotation
+      JOINT RFoot
+      {
+        OFFSET 0 -0.44 0
+        CHANNELS 2 Xrotation Zrotation
+        End Site
+        {
+          OFFSET 0 0 0.2
+        }
+      }
+    }
+  }
+  JOINT Chest
+  {
+    OFFSET 0 0.15 0
+    CHANNELS 3 Yrotation Zrotation Xrotation
+    JOINT Head
+    {
+      OFFSET 0 0.46 0
+      CHANNELS 3 Yrotation Zrotation Xrotation
+      End Site
+      {
+        OFFSET 0 0.2 0
+      }
+    }
+    JOINT LArm
+    {
+      OFFSET 0.175 0.37 0
+      CHANNELS 3 Xrotation Zrotation Yrotation
+      JOINT LFore
+      {
+        OFFSET 0 -0.28 0
+        CHANNELS 2 Xrotation Yrotation
+        JOINT LHand
+        {
+          OFFSET 0 -0.27 0
+          CHANNELS 2 Xrotation Zrotation
+          End Site
+          {
+            OFFSET 0 -0.08 0
+          }
+        }
+      }
+    }
+    JOINT RArm
+    {
+      OFFSET -0.175 0.37 0
+      CHANNELS 3 Xrotation Zrotation Yrotation
+      JOINT RFore
+      {
+        OFFSET 0 -0.28 0
+        CHANNELS 2 Xrotation Yrotation
+        JOINT RHand
+        {
+          OFFSET 0 -0.27 0
+          CHANNELS 2 Xrotation Zrotation
+          End Site
+          {
+            OFFSET 0 -0.08 0
+          }
+        }
+      }
+    }
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.01
+)";
+
+constexpr const char* kSyntheticMapping = R"(length_scale: 1
+skip_frames: 1
+up_axis: +y
+bvh_forward: +z
+root: {bvh: Hips, link: pelvis}
+segments:
+  - {link: torso, bvh: Chest}
+  - {link: head, bvh: Head}
+  - {link: l_thigh, bvh: LUp, hinge_twist: false}
+  - {link: l_shank, bvh: LLeg}
+  - {link: l_foot, bvh: LFoot}
+  - {link: r_thigh, bvh: RUp, hinge_twist: false}
+  - {link: r_shank, bvh: RLeg}
+  - {link: r_foot, bvh: RFoot}
+  - {link: l_upper_arm, bvh: LArm, hinge_twist: false}
+  - {link: l_forearm, bvh: LFore}
+  - {link: l_hand, bvh: LHand}
+  - {link: r_upper_arm, bvh: RArm, hinge_twist: false}
+  - {link: r_forearm, bvh: RFore}
+  - {link: r_hand, bvh: RHand}
+)";
+
+// Figure joint angles (deg) in model order for one synthetic frame, and the BVH line.
+struct SyntheticFrame {
+  Eigen::Vector3d root_pos;       // BVH axes
+  Eigen::Vector3d root_rot_deg;   // yaw, roll, pitch (BVH Y, Z, X)
+  std::map<std::string, double> deg;
+};
+
+std::string bvhLine(const SyntheticFrame& f) {
+  auto d = [&](const char* j) { return f.deg.at(j); };
+  std::vector<double> v = {f.root_pos.x(), f.root_pos.y(), f.root_pos.z(), f.root_rot_deg[0],
+                           f.root_rot_deg[1], f.root_rot_deg[2]};
+  for (const char* s : {"l", "r"}) {
+    const std::string p(s);
+    for (const char* j : {"_hip_yaw", "_hip_roll", "_hip_pitch", "_knee", "_ankle_pitch",
+                          "_ankle_roll"})
+      v.push_back(d((p + j).c_str()));
+  }
+  for (const char* j : {"waist_yaw", "waist_roll", "waist_pitch", "neck_yaw", "neck_roll",
+                        "neck_pitch"})
+    v.push_back(d(j));
+  for (const char* s : {"l", "r"}) {
+    const std::string p(s);
+    v.push_back(d((p + "_shoulder_pitch").c_str()));
+    v.push_back(d((p + "_shoulder_roll").c_str()));
+    v.push_back(d((p + "_shoulder_yaw").c_str()));
+    v.push_back(-d((p + "_elbow").c_str()));  // elbow axis is the figure's −y
+    v.push_back(d((p + "_forearm_yaw").c_str()));
+    v.push_back(d((p + "_wrist_pitch").c_str()));
+    v.push_back(d((p + "_wrist_roll").c_str()));
+  }
+  std::string line;
+  char buf[64];
+  for (double x : v) {
+    std::snprintf(buf, sizeof buf, "%s%.17g", line.empty() ? "" : " ", x);
+    line += buf;
+  }
+  return line + "\n";
+}
+
+SyntheticFrame syntheticFrame(double s) {
+  SyntheticFrame f;
+  f.root_pos = Eigen::Vector3d(0.3 * s, 0.9, -0.2 * s);
+  f.root_rot_deg = Eigen::Vector3d(25.0 * s, -7.5 * s, 12.0 * s);
+  const char* names[] = {"waist_yaw", "waist_roll", "waist_pitch", "neck_yaw", "neck_roll",
+                         "neck_pitch", "l_hip_yaw", "l_hip_roll", "l_hip_pitch", "l_knee",
+                         "l_ankle_pitch", "l_ankle_roll", "r_hip_yaw", "r_hip_roll",
+                         "r_hip_pitch", "r_knee", "r_ankle_pitch", "r_ankle_roll",
+                         "l_shoulder_pitch", "l_shoulder_roll", "l_shoulder_yaw", "l_elbow",
+                         "l_forearm_yaw", "l_wrist_pitch", "l_wrist_roll", "r_shoulder_pitch",
+                         "r_shoulder_roll", "r_shoulder_yaw", "r_elbow", "r_forearm_yaw",
+                         "r_wrist_pitch", "r_wrist_roll"};
+  const double values[] = {10, -5, 20, -30, 8, 12, 15, 10, -60, 70, 20, -10, -12, -8, -45, 35,
+                           -15, 12, -50, 30, 40, 80, 45, 10, -30, 20, -25, -35, 60, -50, -15, 40};
+  for (std::size_t i = 0; i < std::size(names); ++i) f.deg[names[i]] = s * values[i];
+  f.deg["r_knee"] = -20.0 * s;  // hyperextension: outside [0, 150] deg
+  return f;
+}
+
+TEST(Retarget, SyntheticBvhMapsToKnownAngles) {
+  auto model = humanFigure();
+  const ModelInfo& info = model->info();
+  const std::string path = ::testing::TempDir() + "/retarget_synthetic.bvh";
+  const SyntheticFrame frames[] = {syntheticFrame(0.0), syntheticFrame(1.0), syntheticFrame(0.5)};
+  {
+    std::ofstream out(path);
+    out << kSyntheticBvh;
+    for (const SyntheticFrame& f : frames) out << bvhLine(f);
+  }
+  for (const bool clamp : {false, true}) {
+    SCOPED_TRACE(clamp ? "clamped" : "not clamped");
+    RetargetMapping mapping = parseRetargetMapping(kSyntheticMapping, "synthetic.yaml");
+    mapping.clamp_to_limits = clamp;
+    const RetargetResult r = retargetBvhFile(path, mapping, *model);
+    ASSERT_EQ(r.motion.frames.size(), 2u);
+    for (std::size_t k = 0; k < 2; ++k) {
+      const SyntheticFrame& f = frames[k + 1];
+      const Eigen::VectorXd& q = r.motion.frames[k].q;
+      for (int j = 0; j < info.nj; ++j) {
+        const std::string& name = info.joint_names[static_cast<std::size_t>(j)];
+        double expected = f.deg.at(name) * kDeg;
+        if (clamp) expected = std::clamp(expected, info.q_lower[j], info.q_upper[j]);
+        EXPECT_NEAR(q[info.configurationIndex(j)], expected, 1e-9) << name << " frame " << k;
+      }
+      const Eigen::Matrix3d R_expected =
+          (Eigen::AngleAxisd(f.root_rot_deg[0] * kDeg, Eigen::Vector3d::UnitZ()) *
+           Eigen::AngleAxisd(f.root_rot_deg[1] * kDeg, Eigen::Vector3d::UnitX()) *
+           Eigen::AngleAxisd(f.root_rot_deg[2] * kDeg, Eigen::Vector3d::UnitY()))
+              .toRotationMatrix();
+      const Eigen::Quaterniond quat(q[3], q[4], q[5], q[6]);
+      EXPECT_LT((quat.toRotationMatrix() - R_expected).norm(), 1e-9);
+      EXPECT_NEAR(q[0], f.root_pos.z(), 1e-12);
+      EXPECT_NEAR(q[1], f.root_pos.x(), 1e-12);
+      EXPECT_NEAR(q[2], f.root_pos.y() + r.ground_offset_m, 1e-12);
+    }
+    // The hyperextended right knee is reported, with its excess, and kept unless clamping.
+    const JointLimitReport& knee =
+        r.limits[static_cast<std::size_t>(info.findJoint("r_knee"))];
+    EXPECT_EQ(knee.frames_outside, 2);
+    EXPECT_DOUBLE_EQ(knee.fraction_outside, 1.0);
+    EXPECT_NEAR(knee.worst_excess_rad, 20.0 * kDeg, 1e-9);
+    EXPECT_EQ(knee.worst_frame, 0);
+    EXPECT_EQ(r.clamped, clamp);
+    EXPECT_NE(formatLimitReport(r).find("r_knee"), std::string::npos);
+    const JointLimitReport& l_knee =
+        r.limits[static_cast<std::size_t>(info.findJoint("l_knee"))];
+    EXPECT_EQ(l_knee.frames_outside, 0);
+  }
+}
+
+TEST(Retarget, DecomposeRotationRoundTrips) {
+  const std::vector<std::vector<Eigen::Vector3d>> chains = {
+      {Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY()},
+      {Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ()},
+      {-Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ()},
+      {Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitX()},
+      {-Eigen::Vector3d::UnitY()}};
+  const double angles[] = {0.7, -1.2, 2.5};
+  for (const auto& axes : chains) {
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+    for (std::size_t a = 0; a < axes.size(); ++a)
+      R = R * Eigen::AngleAxisd(angles[a], axes[a]).toRotationMatrix();
+    const std::vector<double> out = decomposeRotation(R, axes);
+    ASSERT_EQ(out.size(), axes.size());
+    for (std::size_t a = 0; a < axes.size(); ++a) EXPECT_NEAR(out[a], angles[a], 1e-12);
+  }
+  EXPECT_THROW(decomposeRotation(Eigen::Matrix3d::Identity(),
+                                 {Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitX()}),
+               std::invalid_argument);
+}
+
+TEST(Retarget, MappingErrorsNameTheLine) {
+  try {
+    parseRetargetMapping("length_scale: 1\nsegments:\n  - {link: l_thigh, bvh: A, colour: red}\n",
+                         "m.yaml");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 3);
+    EXPECT_NE(e.reason().find("colour"), std::string::npos);
+  }
+  EXPECT_THROW(parseRetargetMapping("up_axis: +y\nbvh_forward: -y\nsegments: []\n", "m.yaml"),
+               InputError);
+  EXPECT_THROW(parseRetargetMapping("length_scale: -1\nsegments: []\n", "m.yaml"), InputError);
+  EXPECT_THROW(parseRetargetMapping("segments: [\n", "m.yaml"), InputError);
+  // A BVH joint that the file does not have: the mapping's line.
+  auto model = humanFigure();
+  const RetargetMapping mapping = parseRetargetMapping(
+      "root: {bvh: Hips, link: pelvis}\nsegments:\n  - {link: l_thigh, bvh: NoSuchJoint}\n",
+      "m.yaml");
+  try {
+    retargetBvhFile(clipPath(kClips[0]), mapping, *model);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 3);
+    EXPECT_NE(e.reason().find("NoSuchJoint"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace dynfilter::io
