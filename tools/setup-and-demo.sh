@@ -8,3 +8,7 @@ cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
 cmake --build build
 ./build/tools/model_info/dynfilter-model-info
 ./build/tools/offline/dynfilter-offline data/squat_reference.csv -o build/squat_filtered.csv
+# Real motion capture: the CMU walk, retargeted to the figure and filtered.
+./build/tools/bvh2ref/dynfilter-bvh2ref data/mocap/cmu/131_01_start_walk_stop.bvh \
+    --mapping data/mocap/cmu/mappings/131_01.yaml -o build/walk_reference.csv
+./build/tools/offline/dynfilter-offline build/walk_reference.csv -o build/walk_filtered.csv
