@@ -77,6 +77,25 @@ TEST(Offline, FiltersTheSquatIntoAConsistentMotion) {
     EXPECT_GT(std::stod(contacts[r][static_cast<std::size_t>(fz)]), 0.0);
 }
 
+TEST(Offline, BodyPositionsForPicturesMatchTheFilteredBase) {
+  const std::string out = testing::TempDir() + "/squat_bodies_out.csv";
+  const std::string bodies = testing::TempDir() + "/squat_bodies.csv";
+  const ProcessResult run = runOffline(kSquat + " -o " + out + " --no-progress -q --bodies-csv " + bodies);
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const auto main = readCsv(out);
+  const auto rows = readCsv(bodies);
+  ASSERT_EQ(rows.size(), 1 + 2 * (main.size() - 1)) << "a reference and a filtered row per frame";
+  const int pelvis_z = column(rows[0], "pelvis.z");
+  const int base_z = column(main[0], "base_z");
+  ASSERT_GT(pelvis_z, 1);
+  for (std::size_t r = 1; r < main.size(); r += 50) {
+    const auto& filtered = rows[2 * r];  // rows 2r−1 (reference) and 2r (filtered)
+    ASSERT_EQ(filtered[1], "filtered");
+    EXPECT_NEAR(std::stod(filtered[static_cast<std::size_t>(pelvis_z)]),
+                std::stod(main[r][static_cast<std::size_t>(base_z)]), 1e-6);
+  }
+}
+
 TEST(Offline, ABrokenReferenceIsRejectedAndNothingIsWritten) {
   // Copy the squat and put a NaN into line 10 (a data line), column 12.
   std::ifstream in(kSquat);

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <stdexcept>
 #include <string>
 
 #include <unistd.h>
@@ -54,6 +55,50 @@ class ProgressBar {
   int last_ = -1;
 };
 
+// Link origins in world for pictures: "time,source,<link>.x,<link>.y,<link>.z,...".
+// Written to <path>.tmp and renamed on commit, like the filtered motion.
+class BodyPositionWriter {
+ public:
+  BodyPositionWriter(std::string path, const ModelInfo& info) : path_(std::move(path)) {
+    if (path_.empty()) return;
+    out_ = std::fopen((path_ + ".tmp").c_str(), "w");
+    if (out_ == nullptr) throw std::runtime_error("cannot write " + path_ + ".tmp");
+    std::fprintf(out_, "time,source");
+    for (const auto& link : info.body_names)
+      std::fprintf(out_, ",%s.x,%s.y,%s.z", link.c_str(), link.c_str(), link.c_str());
+    std::fprintf(out_, "\n");
+    v_ = Eigen::VectorXd::Zero(info.nv);
+  }
+  ~BodyPositionWriter() {
+    if (out_ != nullptr) {
+      std::fclose(out_);
+      std::remove((path_ + ".tmp").c_str());
+    }
+  }
+  explicit operator bool() const { return out_ != nullptr; }
+  void write(IDynamicsModel& model, const char* source, double time_s, const Eigen::VectorXd& q) {
+    model.setState(q, v_);
+    std::fprintf(out_, "%.9g,%s", time_s, source);
+    for (int b = 0; b < static_cast<int>(model.info().body_names.size()); ++b) {
+      const Eigen::Vector3d p = model.bodyPose(b).translation();
+      std::fprintf(out_, ",%.6f,%.6f,%.6f", p.x(), p.y(), p.z());
+    }
+    std::fprintf(out_, "\n");
+  }
+  void commit() {
+    if (out_ == nullptr) return;
+    const bool ok = std::fclose(out_) == 0;
+    out_ = nullptr;
+    if (!ok || std::rename((path_ + ".tmp").c_str(), path_.c_str()) != 0)
+      throw std::runtime_error("cannot write " + path_);
+  }
+
+ private:
+  std::string path_;
+  std::FILE* out_ = nullptr;
+  Eigen::VectorXd v_;
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -62,6 +107,7 @@ int main(int argc, char** argv) {
   std::string backend = "dart";
   double tick_hz = 500.0, slope_deg = NAN, heading_deg = 0.0, friction = NAN;
   bool every_tick = false, quiet = false, no_progress = false;
+  std::string bodies_path;
   app.add_option("reference", reference_path, "reference motion CSV (see README)")->required();
   app.add_option("-o,--output", output_path, "filtered motion CSV to write")->required();
   app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
@@ -75,6 +121,9 @@ int main(int argc, char** argv) {
   app.add_option("--friction", friction, "ground friction coefficient, overrides the config");
   app.add_flag("--every-tick", every_tick, "write every filter tick, not only reference frames");
   app.add_flag("--no-progress", no_progress, "no progress bar");
+  app.add_option("--bodies-csv", bodies_path,
+                 "also write every link's world position, reference and filtered, per row "
+                 "(for pictures)");
   app.add_flag("-q,--quiet", quiet, "no summary");
   CLI11_PARSE(app, argc, argv);
 
@@ -111,6 +160,7 @@ int main(int argc, char** argv) {
 
     DynamicsFilter filter(*model, config.filter);
     io::FilteredMotionWriter writer(output_path, model->info());
+    BodyPositionWriter bodies(bodies_path, model->info());
     tools::RunSummary summary(model->info());
     ProgressBar progress(!no_progress && !quiet && isatty(STDERR_FILENO));
     const auto wall0 = std::chrono::steady_clock::now();
@@ -136,11 +186,17 @@ int main(int argc, char** argv) {
       if (write) {
         writer.append(out);
         ++written;
+        if (bodies) {
+          // After the tick, so the filter's next setState is unaffected.
+          bodies.write(*model, "reference", ref.time_s, ref.q);
+          bodies.write(*model, "filtered", out.time_s, out.q);
+        }
       }
       progress.update(static_cast<double>(k + 1) / static_cast<double>(ticks));
     }
     progress.done();
     writer.commit();
+    bodies.commit();
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     if (!quiet) {
       std::fprintf(stderr, "wrote %s and %s\n", writer.path().c_str(), writer.contactsPath().c_str());
