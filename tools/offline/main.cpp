@@ -116,7 +116,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(availableBackends()));
   app.add_option("--tick-hz", tick_hz, "filter rate (Hz)")
       ->check(CLI::PositiveNumber);
-  app.add_option("--slope-deg", slope_deg, "ground slope, overrides the config (deg)");
+  app.add_option("--slope-deg", slope_deg,
+                 "ground slope, overrides the config (deg); the plane passes under the "
+                 "reference's first base position");
   app.add_option("--slope-heading-deg", heading_deg, "direction the ground descends (deg)");
   app.add_option("--friction", friction, "ground friction coefficient, overrides the config");
   app.add_flag("--every-tick", every_tick, "write every filter tick, not only reference frames");
@@ -129,19 +131,26 @@ int main(int argc, char** argv) {
 
   try {
     io::FilterConfig config = config_path.empty() ? io::FilterConfig{} : io::loadFilterConfig(config_path);
-    if (!std::isnan(slope_deg))
-      config.environment.ground = GroundPlane::sloped(slope_deg * M_PI / 180.0,
-                                                      heading_deg * M_PI / 180.0, 0.0,
-                                                      config.environment.ground.friction);
+    const auto robot = urdf::loadUrdfFile(model_path);
+    for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    // The motion is read first (any model of the robot knows its coordinates): a slope
+    // given on the command line passes under the motion's first base position.
+    const auto coordinates = makeModel(backend, robot, ModelOptions{});
+    const io::ReferenceMotion motion = io::readReferenceMotion(reference_path, coordinates->info());
+    if (!std::isnan(slope_deg)) {
+      const double slope = slope_deg * M_PI / 180.0, heading = heading_deg * M_PI / 180.0;
+      const Eigen::VectorXd& q0 = motion.frames.front().q;
+      const double along = std::cos(heading) * q0[0] + std::sin(heading) * q0[1];
+      config.environment.ground = GroundPlane::sloped(
+          slope, heading, coordinates->info().floating_base ? std::tan(slope) * along : 0.0,
+          config.environment.ground.friction);
+    }
     if (!std::isnan(friction)) config.environment.ground.friction = friction;
     config.filter.validate();
 
     ModelOptions model_options;
     model_options.environment = config.environment;
-    const auto robot = urdf::loadUrdfFile(model_path);
-    for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     auto model = makeModel(backend, robot, model_options);
-    const io::ReferenceMotion motion = io::readReferenceMotion(reference_path, model->info());
 
     // Uniformly sampled references (the usual mocap case) are filtered with a whole number
     // of ticks per frame, so that every frame time is a tick; otherwise at --tick-hz with
