@@ -250,3 +250,57 @@ TEST(LcmProcesses, BadReferenceFramesAreRejectedAndTheFilterKeepsPublishing) {
 
 }  // namespace
 }  // namespace dynfilter
+
+#include "dynfilter/backends/make_model.hpp"
+#include "dynfilter/io/retarget.hpp"
+
+namespace dynfilter {
+namespace {
+
+// dynfilter-replay streams a BVH capture retargeted on the fly: every frame that arrives
+// is a valid reference for the model, and the stream starts where the retargeted clip does.
+TEST(LcmProcesses, ReplayStreamsABvhCapture) {
+  auto model = loadModel("dart", test::humanFigurePath());
+  const ModelInfo& info = model->info();
+  const std::string bvh = test::sourcePath("data/mocap/cmu/131_01_start_walk_stop.bvh");
+  const std::string mapping = test::sourcePath("data/mocap/cmu/mappings/131_01.yaml");
+  const auto expected = io::retargetBvhFile(bvh, io::readRetargetMapping(mapping), *model);
+
+  const std::string url = uniqueUrl();
+  lcm::LCM lcm(url);
+  messages::ReferenceFrameReader reader(info);
+  messages::ReferenceInput input(info);
+  std::atomic<long> valid{0}, invalid{0};
+  std::mutex mutex;
+  Eigen::VectorXd first_q;
+  struct Handler {
+    std::function<void(const lcm::ReceiveBuffer*)> f;
+    void on(const lcm::ReceiveBuffer* rbuf, const std::string&) { f(rbuf); }
+  } handler{[&](const lcm::ReceiveBuffer* rbuf) {
+    if (reader.read(rbuf->data, rbuf->data_size, input).ok()) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (valid++ == 0) first_q = input.frame.q;
+    } else {
+      ++invalid;
+    }
+  }};
+  lcm.subscribe(messages::kReferenceChannel, &Handler::on, &handler);
+  std::atomic<bool> stop{false};
+  std::thread receive([&] {
+    while (!stop) lcm.handleTimeout(20);
+  });
+  Child replay({bin("dynfilter-replay"), bvh, "--mapping", mapping, "--duration-s", "1.5"}, url);
+  std::this_thread::sleep_for(std::chrono::milliseconds(3500));
+  EXPECT_EQ(replay.stop(), 0);
+  stop = true;
+  receive.join();
+  EXPECT_EQ(invalid.load(), 0);
+  EXPECT_GT(valid.load(), 120) << "about 120 Hz for a good part of 1.5 s";
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_EQ(first_q.size(), info.nq);
+  EXPECT_LT((first_q - expected.motion.frames.front().q).cwiseAbs().maxCoeff(), 0.05)
+      << "the stream starts at the clip's first frame";
+}
+
+}  // namespace
+}  // namespace dynfilter

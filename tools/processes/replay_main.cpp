@@ -1,7 +1,10 @@
 // dynfilter-replay — publishes reference motion files in real time.
 //
-//   dynfilter-replay walk.csv [jump.csv ...] [--speed 1] [--loop] [--start-s 0]
-//                    [--switch 5.0:1 ...] [--rate-hz R] [--duration-s D]
+//   dynfilter-replay walk.csv [jump.bvh ...] [--mapping jump.yaml ...] [--speed 1] [--loop]
+//                    [--start-s 0] [--switch 5.0:1 ...] [--rate-hz R] [--duration-s D]
+//
+// Clips are reference motion CSV files or BVH captures; every .bvh clip takes the next
+// --mapping (retargeting to the model, README "Motion capture (BVH)").
 //
 // Clips switch on a schedule (--switch <seconds>:<clip index>) or from the keyboard: type
 // a clip number (or "n" for the next one) and Enter. Frames carry the wall-clock utime.
@@ -20,6 +23,7 @@
 
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/io/reference_motion.hpp"
+#include "dynfilter/io/retarget.hpp"
 #include "dynfilter/lcm/messages.hpp"
 #include "dynfilter/realtime/replay_player.hpp"
 #include "process_support.hpp"
@@ -37,11 +41,12 @@ struct Switch {
 int main(int argc, char** argv) {
   CLI::App app{"dynfilter-replay: stream reference motion files over LCM in real time."};
   std::vector<std::string> files;
-  std::vector<std::string> switches;
+  std::vector<std::string> switches, mappings;
   std::string model_path = DYNFILTER_DEFAULT_MODEL, url, channel = msg::kReferenceChannel;
   realtime::ReplayOptions options;
   double rate_hz = 0.0, duration_s = 0.0;
-  app.add_option("clips", files, "reference motion CSV files")->required();
+  app.add_option("clips", files, "reference motion CSV files or BVH captures")->required();
+  app.add_option("--mapping", mappings, "retargeting mapping YAML, one per .bvh clip, in order");
   app.add_option("-m,--model", model_path, "URDF model the files are for");
   app.add_option("--speed", options.speed, "playback speed factor")->check(CLI::PositiveNumber);
   app.add_flag("--loop", options.loop, "restart a clip at its end");
@@ -57,7 +62,21 @@ int main(int argc, char** argv) {
     auto model = loadModel("dart", model_path, ModelOptions{});
     const ModelInfo& info = model->info();
     std::vector<realtime::Clip> clips;
-    for (const auto& f : files) clips.push_back({f, io::readReferenceMotion(f, info).frames});
+    std::size_t next_mapping = 0;
+    for (const auto& f : files) {
+      if (f.size() > 4 && f.compare(f.size() - 4, 4, ".bvh") == 0) {
+        if (next_mapping >= mappings.size())
+          throw std::invalid_argument(f + ": a BVH clip needs a --mapping (one per .bvh, in order)");
+        const auto mapping = io::readRetargetMapping(mappings[next_mapping++]);
+        const auto retargeted = io::retargetBvhFile(f, mapping, *model);
+        std::fprintf(stderr, "%s", io::formatLimitReport(retargeted).c_str());
+        clips.push_back({f, retargeted.motion.frames});
+      } else {
+        clips.push_back({f, io::readReferenceMotion(f, info).frames});
+      }
+    }
+    if (next_mapping != mappings.size())
+      throw std::invalid_argument("more --mapping files than .bvh clips");
     std::vector<Switch> schedule;
     for (const auto& s : switches) {
       const auto colon = s.find(':');
