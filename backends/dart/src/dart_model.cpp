@@ -27,29 +27,6 @@ namespace {
 
 using dart::dynamics::Frame;
 
-ModelInfo makeInfo(const urdf::RobotDescription& robot, bool floating_base) {
-  ModelInfo info;
-  info.name = robot.name;
-  info.floating_base = floating_base;
-  info.nj = static_cast<int>(robot.moving_joints.size());
-  info.nq = (floating_base ? kFloatingBaseNq : 0) + info.nj;
-  info.nv = (floating_base ? kFloatingBaseNv : 0) + info.nj;
-  info.q_lower.resize(info.nj);
-  info.q_upper.resize(info.nj);
-  info.v_max.resize(info.nj);
-  info.tau_max.resize(info.nj);
-  for (int c = 0; c < info.nj; ++c) {
-    const urdf::JointDesc& j = robot.joints[robot.moving_joints[c]];
-    info.joint_names.push_back(j.name);
-    info.q_lower[c] = j.lower;
-    info.q_upper[c] = j.upper;
-    info.v_max[c] = j.velocity_max;
-    info.tau_max[c] = j.effort_max;
-  }
-  for (const auto& link : robot.links) info.body_names.push_back(link.name);
-  info.total_mass = robot.totalMass();
-  return info;
-}
 
 // Keeps only robot-versus-environment pairs in the one collision group that holds both.
 // (DART's two-group collide() builds a temporary Bullet world on every call: ~300 µs.)
@@ -75,7 +52,7 @@ class DartModel final : public IDynamicsModel {
  public:
   DartModel(const urdf::RobotDescription& robot, const ModelOptions& options,
             DartMassMatrix mass_matrix)
-      : info_(makeInfo(robot, options.floating_base)),
+      : info_(urdf::makeModelInfo(robot, options.floating_base)),
         environment_(options.environment),
         robot_(buildRobotSkeleton(robot, options.floating_base)),
         env_(buildEnvironmentSkeleton(options.environment)),

@@ -26,30 +26,6 @@ constexpr int kMaxSimulationContacts = 256;
 
 Eigen::Vector3d toEigen(const dReal* v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
 
-ModelInfo makeInfo(const urdf::RobotDescription& robot, bool floating_base) {
-  ModelInfo info;
-  info.name = robot.name;
-  info.floating_base = floating_base;
-  info.nj = static_cast<int>(robot.moving_joints.size());
-  info.nq = (floating_base ? kFloatingBaseNq : 0) + info.nj;
-  info.nv = (floating_base ? kFloatingBaseNv : 0) + info.nj;
-  info.q_lower.resize(info.nj);
-  info.q_upper.resize(info.nj);
-  info.v_max.resize(info.nj);
-  info.tau_max.resize(info.nj);
-  for (int c = 0; c < info.nj; ++c) {
-    const auto joint_index = robot.moving_joints[static_cast<std::size_t>(c)];
-    const urdf::JointDesc& j = robot.joints[static_cast<std::size_t>(joint_index)];
-    info.joint_names.push_back(j.name);
-    info.q_lower[c] = j.lower;
-    info.q_upper[c] = j.upper;
-    info.v_max[c] = j.velocity_max;
-    info.tau_max[c] = j.effort_max;
-  }
-  for (const auto& link : robot.links) info.body_names.push_back(link.name);
-  info.total_mass = robot.totalMass();
-  return info;
-}
 
 /// World state of one ODE body: origin (= CoM) position, rotation, and the velocities of
 /// the origin. A body-less node (fixed-base root) is the world at rest.
@@ -82,7 +58,7 @@ struct CollisionPass {
 class OdeModel final : public IDynamicsModel {
  public:
   OdeModel(const urdf::RobotDescription& robot, const ModelOptions& options)
-      : info_(makeInfo(robot, options.floating_base)),
+      : info_(urdf::makeModelInfo(robot, options.floating_base)),
         environment_(options.environment),
         gravity_W_(options.gravity_W),
         ode_(robot, options.floating_base, options.gravity_W, options.environment,

@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "dynfilter/core/errors.hpp"
+#include "dynfilter/core/lie_group.hpp"
 
 namespace dynfilter::urdf {
 namespace {
@@ -82,6 +83,30 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
                            std::to_string(m[0]) + ", " + std::to_string(m[1]) + ", " +
                            std::to_string(m[2]) + " kg m²)");
   }
+}
+
+ModelInfo makeModelInfo(const RobotDescription& robot, bool floating_base) {
+  ModelInfo info;
+  info.name = robot.name;
+  info.floating_base = floating_base;
+  info.nj = static_cast<int>(robot.moving_joints.size());
+  info.nq = (floating_base ? kFloatingBaseNq : 0) + info.nj;
+  info.nv = (floating_base ? kFloatingBaseNv : 0) + info.nj;
+  info.q_lower.resize(info.nj);
+  info.q_upper.resize(info.nj);
+  info.v_max.resize(info.nj);
+  info.tau_max.resize(info.nj);
+  for (int c = 0; c < info.nj; ++c) {
+    const JointDesc& j = robot.joints[static_cast<std::size_t>(robot.moving_joints[static_cast<std::size_t>(c)])];
+    info.joint_names.push_back(j.name);
+    info.q_lower[c] = j.lower;
+    info.q_upper[c] = j.upper;
+    info.v_max[c] = j.velocity_max;
+    info.tau_max[c] = j.effort_max;
+  }
+  for (const auto& link : robot.links) info.body_names.push_back(link.name);
+  info.total_mass = robot.totalMass();
+  return info;
 }
 
 }  // namespace dynfilter::urdf

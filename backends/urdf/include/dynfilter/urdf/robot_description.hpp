@@ -10,6 +10,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "dynfilter/core/model_info.hpp"
+
 namespace dynfilter::urdf {
 
 enum class JointType { kRevolute, kContinuous, kPrismatic, kFixed };
@@ -82,5 +84,9 @@ struct RobotDescription {
 /// that is symmetric positive definite and satisfies the triangle inequality; all numbers
 /// are finite. Throws ModelError naming the file, line, element and reason.
 void validateForDynamics(const RobotDescription& robot, bool floating_base);
+
+/// The model's names, sizes and limits as every backend reports them (ModelInfo): joints
+/// are the moving joints in file order, bodies all links in file order.
+ModelInfo makeModelInfo(const RobotDescription& robot, bool floating_base);
 
 }  // namespace dynfilter::urdf
