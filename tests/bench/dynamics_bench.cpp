@@ -1,8 +1,10 @@
-// Cost of the IDynamicsModel queries on the DART backend, for the human figure
+// Cost of the IDynamicsModel queries on one backend (DYNFILTER_BENCH_BACKEND: bench_dynamics
+// is DART, bench_ode is ODE, both from this file and the same states), for the human figure
 // (models/human_figure.urdf: floating base, 32 joints, nv = 38) standing on level ground.
 //
 // DART caches kinematics and dynamics per state and skips the update when a position is
-// set to the value it already holds, so every timed iteration pushes a different state:
+// set to the value it already holds (ODE's backend poses every body in setState instead),
+// so every timed iteration pushes a different state:
 // kNumStates states are generated before timing and the loop cycles through them. Each
 // timed benchmark other than BM_SetState includes one setState; BM_SetState reports that
 // cost on its own so readers can subtract it. DART updates lazily, so forward kinematics
@@ -35,7 +37,10 @@
 #include "dynfilter/core/dynamics_model.hpp"
 #include "dynfilter/core/model_options.hpp"
 #include "dynfilter/core/types.hpp"
+#include "dynfilter/backends/make_model.hpp"
+#if DYNFILTER_BENCH_DART
 #include "dynfilter/dart/dart_model.hpp"
+#endif
 
 namespace {
 
@@ -115,7 +120,9 @@ State standingState(const ModelInfo& info, double pelvis_height_m, std::mt19937&
 
 struct Context {
   std::unique_ptr<IDynamicsModel> model;
+#if DYNFILTER_BENCH_DART
   std::unique_ptr<IDynamicsModel> skeleton_mass_model;  // A from Skeleton::getMassMatrix
+#endif
   int l_foot = -1;
   int r_foot = -1;
   Eigen::Vector3d p_FootSole = Eigen::Vector3d::Zero();  // sole centre, foot frame
@@ -127,11 +134,12 @@ struct Context {
 
 Context makeContext() {
   Context c;
-  c.model = dynfilter::dart_backend::loadDartModel(sourcePath("models/human_figure.urdf"),
-                                                   dynfilter::ModelOptions{});
+  c.model = dynfilter::loadModel(DYNFILTER_BENCH_BACKEND, sourcePath("models/human_figure.urdf"));
+#if DYNFILTER_BENCH_DART
   c.skeleton_mass_model = dynfilter::dart_backend::loadDartModel(
       sourcePath("models/human_figure.urdf"), dynfilter::ModelOptions{},
       dynfilter::dart_backend::DartMassMatrix::kSkeleton);
+#endif
   const ModelInfo& info = c.model->info();
   c.l_foot = info.findBody("l_foot");
   c.r_foot = info.findBody("r_foot");
@@ -200,10 +208,12 @@ void massMatrixLoop(benchmark::State& st, IDynamicsModel& model) {
 
 // The backend's default: Σ J_kᵀ M_k J_k over bodies.
 void BM_MassMatrix(benchmark::State& st) { massMatrixLoop(st, *context().model); }
+#if DYNFILTER_BENCH_DART
 // DART's own Skeleton::getMassMatrix, for comparison.
 void BM_MassMatrixDartSkeleton(benchmark::State& st) {
   massMatrixLoop(st, *context().skeleton_mass_model);
 }
+#endif
 
 void BM_Bias(benchmark::State& st) {
   Context& c = context();
@@ -289,7 +299,9 @@ void BM_DetectContacts(benchmark::State& st) {
 
 BENCHMARK(BM_SetState)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MassMatrix)->Unit(benchmark::kMicrosecond);
+#if DYNFILTER_BENCH_DART
 BENCHMARK(BM_MassMatrixDartSkeleton)->Unit(benchmark::kMicrosecond);
+#endif
 BENCHMARK(BM_Bias)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_FootJacobians)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_FootJacobianDotTimesV)->Unit(benchmark::kMicrosecond);
@@ -313,7 +325,7 @@ int main(int argc, char** argv) {
                                 std::to_string(c.standing_contacts_min) + ".." +
                                     std::to_string(c.standing_contacts_max));
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "bench_dynamics: setup failed: %s\n", e.what());
+    std::fprintf(stderr, "bench (%s): setup failed: %s\n", DYNFILTER_BENCH_BACKEND, e.what());
     return 1;
   }
   benchmark::RunSpecifiedBenchmarks();
