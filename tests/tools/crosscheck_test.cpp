@@ -1,5 +1,6 @@
 // dynfilter-crosscheck as a user runs it: DART against ODE on real files.
 #include <cstdio>
+#include <unistd.h>
 #include <cstdlib>
 #include <fstream>
 #include <regex>
@@ -19,7 +20,9 @@ struct ProcessResult {
 };
 
 ProcessResult run(const std::string& binary, const std::string& args) {
-  const std::string log = testing::TempDir() + "/crosscheck_output.txt";
+  // One file per process: ctest runs tests of this binary in parallel processes.
+  const std::string log =
+      testing::TempDir() + "/crosscheck_output_" + std::to_string(getpid()) + ".txt";
   const int status = std::system((binary + " " + args + " > " + log + " 2>&1").c_str());
   std::ifstream in(log);
   std::stringstream text;

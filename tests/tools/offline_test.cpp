@@ -1,5 +1,6 @@
 // dynfilter-offline as a user runs it: real files in, real files out, exit codes.
 #include <cstdio>
+#include <unistd.h>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -18,7 +19,9 @@ struct ProcessResult {
 };
 
 ProcessResult runOffline(const std::string& args) {
-  const std::string err = testing::TempDir() + "/offline_stderr.txt";
+  // One file per process: ctest runs tests of this binary in parallel processes.
+  const std::string err =
+      testing::TempDir() + "/offline_stderr_" + std::to_string(getpid()) + ".txt";
   const std::string cmd = std::string(DYNFILTER_OFFLINE_BIN) + " " + args + " 2> " + err;
   const int status = std::system(cmd.c_str());
   std::ifstream in(err);
