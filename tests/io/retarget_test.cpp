@@ -37,15 +37,35 @@ std::string mappingPath(const Clip& c) {
   return test::sourcePath(std::string("data/mocap/cmu/mappings/") + c.name + ".yaml");
 }
 
+// A shipped clip read with its mapping's scale and retargeted onto the figure, with the
+// BVH joint that drives each mapped link.
+struct Retargeted {
+  RetargetMapping mapping;
+  BvhMotion bvh;
+  RetargetResult result;
+  std::map<std::string, int> bvh_joint_of_link;
+};
+
+Retargeted retargetClip(const Clip& c, IDynamicsModel& model) {
+  Retargeted out;
+  out.mapping = readRetargetMapping(mappingPath(c));
+  BvhReadOptions options;
+  options.length_scale = out.mapping.length_scale;
+  out.bvh = readBvh(clipPath(c), options);
+  out.result = retargetBvh(out.bvh, out.mapping, model);
+  for (const RetargetSegment& s : out.mapping.segments)
+    out.bvh_joint_of_link[s.link] = out.bvh.findJoint(s.bvh);
+  return out;
+}
+
 TEST(Retarget, ShippedClipsFrameCountAndTime) {
   auto model = humanFigure();
   for (const Clip& c : kClips) {
     SCOPED_TRACE(c.name);
-    const RetargetMapping mapping = readRetargetMapping(mappingPath(c));
-    BvhReadOptions options;
-    options.length_scale = mapping.length_scale;
-    const BvhMotion bvh = readBvh(clipPath(c), options);
-    const RetargetResult r = retargetBvh(bvh, mapping, *model);
+    const Retargeted clip = retargetClip(c, *model);
+    const RetargetMapping& mapping = clip.mapping;
+    const BvhMotion& bvh = clip.bvh;
+    const RetargetResult& r = clip.result;
     ASSERT_EQ(static_cast<int>(r.motion.frames.size()), bvh.frameCount() - mapping.skip_frames);
     EXPECT_EQ(r.first_bvh_frame, mapping.skip_frames);
     EXPECT_DOUBLE_EQ(r.motion.frames[0].time_s, 0.0);
@@ -90,13 +110,10 @@ TEST(Retarget, RoundTripSegmentDirections) {
       {"r_upper_arm", "r_forearm"},   {"r_forearm", "r_hand"}};
   for (const Clip& c : kClips) {
     SCOPED_TRACE(c.name);
-    const RetargetMapping mapping = readRetargetMapping(mappingPath(c));
-    BvhReadOptions options;
-    options.length_scale = mapping.length_scale;
-    const BvhMotion bvh = readBvh(clipPath(c), options);
-    const RetargetResult r = retargetBvh(bvh, mapping, *model);
-    std::map<std::string, int> bvh_of;
-    for (const RetargetSegment& s : mapping.segments) bvh_of[s.link] = bvh.findJoint(s.bvh);
+    const Retargeted clip = retargetClip(c, *model);
+    const BvhMotion& bvh = clip.bvh;
+    const RetargetResult& r = clip.result;
+    const std::map<std::string, int>& bvh_of = clip.bvh_joint_of_link;
     const Eigen::Matrix3d& R_conv = r.axis_conversion;
     std::vector<double> sum(bones.size(), 0.0), worst(bones.size(), 0.0);
     double pelvis_err_max = 0.0;
@@ -147,13 +164,10 @@ TEST(Retarget, RoundTripEndEffectorsRelativeToPelvis) {
   const std::vector<std::string> links = {"l_foot", "r_foot", "l_hand", "r_hand", "head"};
   for (const Clip& c : kClips) {
     SCOPED_TRACE(c.name);
-    const RetargetMapping mapping = readRetargetMapping(mappingPath(c));
-    BvhReadOptions options;
-    options.length_scale = mapping.length_scale;
-    const BvhMotion bvh = readBvh(clipPath(c), options);
-    const RetargetResult r = retargetBvh(bvh, mapping, *model);
-    std::map<std::string, int> bvh_of;
-    for (const RetargetSegment& s : mapping.segments) bvh_of[s.link] = bvh.findJoint(s.bvh);
+    const Retargeted clip = retargetClip(c, *model);
+    const BvhMotion& bvh = clip.bvh;
+    const RetargetResult& r = clip.result;
+    const std::map<std::string, int>& bvh_of = clip.bvh_joint_of_link;
     std::vector<double> dir_sum(links.size(), 0.0), dist_sum(links.size(), 0.0);
     int n = 0;
     std::vector<Eigen::Isometry3d> X;
