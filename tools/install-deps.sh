@@ -57,3 +57,17 @@ if [ -x "$venv/bin/python" ] &&
          "(README, \"Plotting a log\")" >&2
   fi
 fi
+
+# ProxQP (proxsuite), the QP mode's solver: header-only C++, shipped as a CMake package in
+# its PyPI wheel (under site-packages/cmeel.prefix). The C++ build needs it: fail loudly.
+PROXSUITE_VERSION=0.7.2
+if ! "$venv/bin/python" -c "import importlib.metadata as m, sys; sys.exit(m.version('proxsuite') != '$PROXSUITE_VERSION')" 2>/dev/null; then
+  echo "installing the proxsuite $PROXSUITE_VERSION wheel (C++ headers + CMake package) into $venv"
+  [ -x "$venv/bin/python" ] || /usr/bin/python3 -m venv "$venv"
+  # --no-deps: only the C++ headers are used, not its Python module (which needs numpy/scipy).
+  "$venv/bin/python" -m pip install -q --disable-pip-version-check --no-deps \
+    "proxsuite==$PROXSUITE_VERSION" || {
+    echo "error: could not install proxsuite $PROXSUITE_VERSION into $venv (needed by the build)" >&2
+    exit 1
+  }
+fi

@@ -1,5 +1,6 @@
 #include "dynfilter/core/dynamics_filter.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -23,7 +24,8 @@ constexpr std::size_t kMaxCandidates = 64;
 
 }  // namespace
 
-DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& options)
+DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& options,
+                               const QpSolverFactory& qp_solver)
     : model_(model),
       options_((options.validate(), options)),
       nv_(model.nv()),
@@ -42,6 +44,14 @@ DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& optio
     if (task_body_ < 0)
       throw std::invalid_argument("filter option task.body: \"" + options_.task.body +
                                   "\" is not a link of model \"" + info.name + "\"");
+  }
+  if (options_.mode == FilterMode::kQp) {
+    if (options_.task.enabled && options_.task.as_constraint_rows)
+      throw std::invalid_argument(
+          "filter option task.as_constraint_rows: the QP mode keeps only the rows of Eq. 12 as "
+          "equalities; use the task feedback of Eq. 19-20 (as_constraint_rows: false)");
+    contact_qp_ = std::make_unique<ContactQp>(info, options_.contacts.max_links, options_.dt_s,
+                                              options_.qp, qp_solver);
   }
   const int max_rows = 6 * options_.contacts.max_links;
   q_ = info.neutralConfiguration();
@@ -94,6 +104,16 @@ void DynamicsFilter::reseed(const ReferenceFrame& reference) {
   q_ = reference.q;
   v_ = reference.v;
   links_.clear();
+  if (contact_qp_ && options_.qp.enforce_joint_limits) {
+    // The QP mode keeps joints in their limits; it starts inside them.
+    const ModelInfo& info = model_.info();
+    for (int j = 0; j < nj_; ++j) {
+      double& qj = q_[info.configurationIndex(j)];
+      qj = std::clamp(qj, info.q_lower[j], info.q_upper[j]);
+      double& vj = v_[info.velocityIndex(j)];
+      vj = std::clamp(vj, -info.v_max[j], info.v_max[j]);
+    }
+  }
   if (nb_ == 0) return;
   // Lift the base out of the environment when the reference sinks into it deeper than
   // the tolerance: the filter must not start inside the floor. Shallower contact is left
@@ -159,6 +179,7 @@ void DynamicsFilter::desiredAcceleration(const ReferenceFrame& reference) {
 
 const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   const Clock::time_point t0 = Clock::now();
+  ++out_.counters.ticks;
   std::uint32_t status = kStatusOk;
   if (referenceValid(reference)) {
     last_reference_.time_s = reference.time_s;
@@ -172,6 +193,7 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
     }
   } else {
     status |= kStatusReferenceInvalid;
+    ++out_.counters.invalid_references;
     if (!has_reference_) {  // nothing to hold on to yet
       out_.status = status;
       return out_;
@@ -179,9 +201,10 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   }
   const ReferenceFrame& ref = last_reference_;
 
-  // Reference kinematics of the task point P.
+  // Reference kinematics: the task point P, and (QP mode) contact points the reference lifts.
+  if (task_body_ >= 0 || contact_qp_) model_.setState(ref.q, ref.v);
+  if (contact_qp_) links_.startLiftoffReleases(model_, options_.qp.liftoff_clearance_m);
   if (task_body_ >= 0) {
-    model_.setState(ref.q, ref.v);
     const Eigen::Isometry3d X_WB = model_.bodyPose(task_body_);
     task_p_ref_ = X_WB * options_.task.p_BP;
     task_R_ref_ = X_WB.linear();
@@ -207,14 +230,18 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
     if (constrained_.plasticImpact(A_, H_C, v_, tau_C)) {
       model_.setState(q_, v_);
       status |= kStatusImpact;
+      ++out_.counters.impacts;
     }
   }
   model_.bias(b_);
   links_.assemble(model_, H_C, u_C);
   desiredAcceleration(ref);
 
-  // Eq. 21–23.
   const Clock::time_point t_solve = Clock::now();
+  if (contact_qp_) {
+    status |= solveQp(H_C, u_C, tau_C);
+  } else {
+  // Eq. 21–23.
   const bool task_rows = task_body_ >= 0 && options_.task.as_constraint_rows;
   std::uint32_t solve_status = kStatusRankDeficient;
   if (task_rows)
@@ -227,22 +254,40 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
     solve_status |= solver_.solve(A_, b_, H_C, u_C, vdot_desired_, vdot_solved_, tau_C, tau_J_solved_);
   }
   status |= solve_status;
+  }
   out_.solve_time_s = secondsSince(t_solve);
 
-  const bool finite = vdot_solved_.allFinite() && tau_J_solved_.allFinite() && tau_C.allFinite();
+  // The rows that hold: the QP mode may have released every link (contacts that could not
+  // be held), leaving none.
+  const int nc_held = links_.numRows();
+  const auto H_held = H_C_.topRows(nc_held);
+  const auto u_held = u_C_.head(nc_held);
+  const auto tau_held = tau_C_.head(nc_held);
+  const bool finite = vdot_solved_.allFinite() && tau_J_solved_.allFinite() && tau_held.allFinite();
   if (!finite) {
     // Keep the last good output and state; start over from the reference.
     status |= kStatusNonFinite | kStatusReseeded;
+    ++out_.counters.reseeds;
     reseed(ref);
     out_.status = status;
     out_.tick_time_s = secondsSince(t0);
     return out_;
   }
   const Eq12Residual residual =
-      eq12Residual(A_, b_, H_C, u_C, nb_, vdot_solved_, tau_C, tau_J_solved_, scratch_);
+      eq12Residual(A_, b_, H_held, u_held, nb_, vdot_solved_, tau_held, tau_J_solved_, scratch_);
   out_.eq12_residual = residual.max_abs;
   out_.base_residual_n = residual.base_max_abs;
-  out_.num_contacts = links_.finishTick(model_, tau_C, out_.contacts, true);
+  const int links_before = links_.size();
+  if (contact_qp_) {
+    const double f_min = options_.qp.min_normal_force_n;
+    out_.num_contacts = links_.finishTick(model_, tau_held, out_.contacts, true,
+                                          f_min + std::max(1e-3, 1e-3 * f_min), options_.dt_s,
+                                          options_.qp.release_transition_s);
+  } else {
+    out_.num_contacts = links_.finishTick(model_, tau_held, out_.contacts, true,
+                                          options_.contacts.release_force_n, options_.dt_s, 0.0);
+  }
+  out_.counters.links_released += static_cast<std::uint64_t>(links_before - links_.size());
   out_.time_s = ref.time_s;
   out_.q = q_;
   out_.v = v_;
@@ -256,11 +301,53 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
 
   if (nb_ > 0 && dq_.head<3>().norm() > options_.max_base_error_m) {
     status |= kStatusReseeded;
+    ++out_.counters.reseeds;
     reseed(ref);
   }
   out_.status = status;
   out_.tick_time_s = secondsSince(t0);
   return out_;
+}
+
+std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
+                                      Eigen::Ref<Eigen::VectorXd> u_C,
+                                      Eigen::Ref<Eigen::VectorXd> tau_C) {
+  const ContactQpReport report =
+      contact_qp_->solve(A_, b_, H_C, u_C, links_, model_.environment(), q_, v_, vdot_desired_,
+                         vdot_solved_, tau_C, tau_J_solved_);
+  out_.qp_status = static_cast<int>(report.info.status);
+  out_.qp_iterations = report.info.iterations;
+  out_.qp_relaxation = (report.joint_limits_dropped ? 1u : 0u) | (report.ramps_dropped ? 2u : 0u) |
+                       (report.contacts_released ? 4u : 0u);
+  out_.qp_violated = out_.qp_relaxation != 0 ? report.violated_first : report.violated;
+  out_.counters.qp_iterations += static_cast<std::uint64_t>(std::max(0, report.info.iterations));
+  if (report.ok) {
+    ++out_.counters.qp_solves;
+    if (out_.qp_relaxation == 0) return kStatusOk;
+    ++out_.counters.qp_relaxed;
+    if (report.contacts_released) links_.releaseAll();
+    return kStatusQpRelaxed;
+  }
+  out_.qp_violated |= report.violated;
+  // Fallback: the paper's solve, torques clamped to their limits, then Eq. 14 with the
+  // clamped torques so that Eq. 12 still holds for what is published.
+  ++out_.counters.qp_fallbacks;
+
+  std::uint32_t status = kStatusQpFallback;
+  status |= solver_.solve(A_, b_, H_C, u_C, vdot_desired_, vdot_solved_, tau_C, tau_J_solved_);
+  const Eigen::VectorXd& tau_max = model_.info().tau_max;
+  bool clamped = false;
+  for (int j = 0; j < nj_; ++j) {
+    const double limited = std::clamp(tau_J_solved_[j], -tau_max[j], tau_max[j]);
+    clamped = clamped || limited != tau_J_solved_[j];
+    tau_J_solved_[j] = limited;
+  }
+  if (clamped) {
+    status |= kStatusTorqueClamped;
+    if (!constrained_.forward(A_, b_, H_C, u_C, tau_J_solved_, vdot_solved_, tau_C))
+      status |= kStatusRankDeficient;
+  }
+  return status;
 }
 
 }  // namespace dynfilter

@@ -10,6 +10,7 @@ DynamicsSimulator::DynamicsSimulator(IDynamicsModel& model, const ContactOptions
     : model_(model),
       dt_s_(dt_s),
       floating_(model.info().floating_base),
+      release_force_n_(contacts.release_force_n),
       links_(contacts, model.nv()),
       candidates_(64),
       constrained_(model.nv(), floating_ ? kFloatingBaseNv : 0, 6 * contacts.max_links),
@@ -59,7 +60,8 @@ std::uint32_t DynamicsSimulator::step(const Eigen::Ref<const Eigen::VectorXd>& t
   v_start_ = v_;
   v_.noalias() += dt_s_ * vdot_;
   integrateConfiguration(floating_, q_, v_, dt_s_, q_);
-  num_contacts_ = links_.finishTick(model_, tau_C, contacts_, true);
+  num_contacts_ = links_.finishTick(model_, tau_C, contacts_, true, release_force_n_,
+                                    dt_s_, 0.0);
   return status;
 }
 

@@ -39,6 +39,35 @@ void FilterOptions::validate() const {
   require(positive(solver.force_weight), "solver.force_weight", "must be > 0");
   require(positive(solver.sr_damping), "solver.sr_damping", "must be > 0");
   require(positive(max_base_error_m), "max_base_error_m", "must be > 0");
+  require(mode == FilterMode::kPaper || mode == FilterMode::kQp, "mode", "must be paper or qp");
+  require(positive(qp.accel_weight), "qp.accel_weight", "must be > 0");
+  require(positive(qp.force_weight), "qp.force_weight", "must be > 0");
+  require(nonNegative(qp.torque_weight), "qp.torque_weight", "must be >= 0");
+  require(nonNegative(qp.min_normal_force_n), "qp.min_normal_force_n", "must be >= 0");
+  require(qp.friction_facets >= 3 && qp.friction_facets <= 16, "qp.friction_facets",
+          "must be in [3, 16]");
+  require(nonNegative(qp.cop_margin_m), "qp.cop_margin_m", "must be >= 0");
+  require(positive(qp.liftoff_clearance_m), "qp.liftoff_clearance_m", "must be > 0");
+  require(nonNegative(qp.release_transition_s), "qp.release_transition_s", "must be >= 0");
+  require(positive(qp.joint_limit_horizon_s) && qp.joint_limit_horizon_s >= dt_s,
+          "qp.joint_limit_horizon_s", "must be >= dt_s");
+  require(positive(qp.joint_limit_max_decel), "qp.joint_limit_max_decel", "must be > 0");
+  require(positive(qp.solver.eps_abs), "qp.solver.eps_abs", "must be > 0");
+  require(qp.solver.max_iterations >= 1, "qp.solver.max_iterations", "must be >= 1");
 }
+
+bool parseFilterMode(const std::string& text, FilterMode& mode) {
+  if (text == "paper") {
+    mode = FilterMode::kPaper;
+    return true;
+  }
+  if (text == "qp") {
+    mode = FilterMode::kQp;
+    return true;
+  }
+  return false;
+}
+
+const char* toString(FilterMode mode) { return mode == FilterMode::kQp ? "qp" : "paper"; }
 
 }  // namespace dynfilter

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "dynfilter/core/lie_group.hpp"
 
@@ -46,6 +47,14 @@ VirtualLinkSet::VirtualLinkSet(const ContactOptions& options, int nv)
 void VirtualLinkSet::clear() {
   size_ = 0;
   num_released_ = 0;
+}
+
+void VirtualLinkSet::releaseAll() {
+  for (int i = 0; i < size_ && num_released_ < static_cast<int>(released_.size()); ++i) {
+    const VirtualLink& link = links_[static_cast<std::size_t>(i)];
+    if (!isReleased(link.body, link.object)) released_[static_cast<std::size_t>(num_released_++)] = {link.body, link.object};
+  }
+  size_ = 0;
 }
 
 int VirtualLinkSet::numRows() const {
@@ -126,6 +135,21 @@ bool VirtualLinkSet::makeLink(const IDynamicsModel& model, const ContactList& ca
       link.kind = ContactKind::kFace;
     }
   }
+  // Support rectangle of the points in the link frame's xy, about its origin.
+  const Eigen::Vector3d y_axis = n.cross(x_axis);
+  link.support_min.setZero();
+  link.support_max.setZero();
+  if (link.kind != ContactKind::kPoint) {
+    link.support_min.setConstant(std::numeric_limits<double>::infinity());
+    link.support_max.setConstant(-std::numeric_limits<double>::infinity());
+    for (const ContactCandidate& c : candidates) {
+      if (c.body != body || c.object != object) continue;
+      const Eigen::Vector3d r = c.p_WC - origin;
+      const Eigen::Vector2d xy(x_axis.dot(r), link.kind == ContactKind::kFace ? y_axis.dot(r) : 0.0);
+      link.support_min = link.support_min.cwiseMin(xy);
+      link.support_max = link.support_max.cwiseMax(xy);
+    }
+  }
   Eigen::Isometry3d X_WC = Eigen::Isometry3d::Identity();
   X_WC.linear().col(0) = x_axis;
   X_WC.linear().col(1) = n.cross(x_axis);
@@ -139,6 +163,10 @@ bool VirtualLinkSet::makeLink(const IDynamicsModel& model, const ContactList& ca
   link.num_axes = constrainedAxes(link.kind, link.axes);
   link.low_force_ticks = 0;
   link.created_this_tick = true;
+  link.normal_force_n = 0.0;
+  link.releasing = false;
+  link.release_elapsed_s = 0.0;
+  link.release_start_force_n = 0.0;
   return true;
 }
 
@@ -230,9 +258,35 @@ void VirtualLinkSet::assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::Mat
   }
 }
 
+int VirtualLinkSet::startLiftoffReleases(const IDynamicsModel& model, double clearance_m) {
+  int started = 0;
+  for (int i = 0; i < size_; ++i) {
+    VirtualLink& link = links_[static_cast<std::size_t>(i)];
+    if (link.releasing) continue;
+    const Eigen::Vector3d p_WC = (model.bodyPose(link.body) * link.X_BC).translation();
+    const double height = link.X_WA.linear().col(2).dot(p_WC - link.X_WA.translation());
+    if (height > clearance_m) {
+      link.releasing = true;
+      link.release_elapsed_s = 0.0;
+      link.release_start_force_n = link.normal_force_n;
+      ++started;
+    }
+  }
+  return started;
+}
+
+double VirtualLinkSet::normalForceUpperBound(int i, double min_force_n, double transition_s) const {
+  const VirtualLink& link = links_[static_cast<std::size_t>(i)];
+  if (!link.releasing) return std::numeric_limits<double>::infinity();
+  const double remaining =
+      transition_s > 0.0 ? std::max(0.0, 1.0 - link.release_elapsed_s / transition_s) : 0.0;
+  return std::max(min_force_n, link.release_start_force_n * remaining);
+}
+
 int VirtualLinkSet::finishTick(const IDynamicsModel& model,
                                const Eigen::Ref<const Eigen::VectorXd>& tau_C,
-                               std::vector<ContactOutput>& contacts, bool allow_release) {
+                               std::vector<ContactOutput>& contacts, bool allow_release,
+                               double low_force_n, double dt_s, double transition_s) {
   int row = 0;
   int written = 0;
   int kept = 0;
@@ -255,8 +309,15 @@ int VirtualLinkSet::finishTick(const IDynamicsModel& model,
       if (link.kind != ContactKind::kPoint && wrench_A[2] > 1e-9)
         out.cop_A = Eigen::Vector2d(-wrench_A[4] / wrench_A[2], wrench_A[3] / wrench_A[2]);
     }
-    link.low_force_ticks = wrench_A[2] < options_.release_force_n ? link.low_force_ticks + 1 : 0;
-    const bool release = allow_release && link.low_force_ticks >= options_.release_ticks;
+    link.normal_force_n = wrench_A[2];
+    link.low_force_ticks = wrench_A[2] < low_force_n ? link.low_force_ticks + 1 : 0;
+    bool ramp_done = false;
+    if (link.releasing) {
+      link.release_elapsed_s += dt_s;
+      ramp_done = link.release_elapsed_s >= transition_s;
+    }
+    const bool release =
+        allow_release && (link.low_force_ticks >= options_.release_ticks || ramp_done);
     if (release && num_released_ < static_cast<int>(released_.size())) {
       released_[static_cast<std::size_t>(num_released_++)] = {link.body, link.object};
       continue;

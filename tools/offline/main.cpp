@@ -23,6 +23,7 @@
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/backends/make_model.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/io/config.hpp"
 #include "dynfilter/io/filtered_motion.hpp"
 #include "dynfilter/io/reference_motion.hpp"
@@ -104,7 +105,7 @@ class BodyPositionWriter {
 int main(int argc, char** argv) {
   CLI::App app{"Filter a reference motion into a physically consistent one (Yamane & Nakamura)."};
   std::string reference_path, output_path, model_path = DYNFILTER_DEFAULT_MODEL, config_path;
-  std::string backend = "dart";
+  std::string backend = "dart", mode;
   double tick_hz = 500.0, slope_deg = NAN, heading_deg = 0.0, friction = NAN;
   bool every_tick = false, quiet = false, no_progress = false;
   std::string bodies_path;
@@ -114,6 +115,9 @@ int main(int argc, char** argv) {
   app.add_option("-c,--config", config_path, "YAML configuration (tools/config/default.yaml)");
   app.add_option("--backend", backend, "dynamics backend: dart or ode")
       ->check(CLI::IsMember(availableBackends()));
+  app.add_option("--mode", mode, "solver: paper (Eq. 21-23) or qp (contact-consistent QP); "
+                 "overrides the config's mode")
+      ->check(CLI::IsMember({"paper", "qp"}));
   app.add_option("--tick-hz", tick_hz, "filter rate (Hz)")
       ->check(CLI::PositiveNumber);
   app.add_option("--slope-deg", slope_deg,
@@ -146,6 +150,7 @@ int main(int argc, char** argv) {
           config.environment.ground.friction);
     }
     if (!std::isnan(friction)) config.environment.ground.friction = friction;
+    if (!mode.empty()) parseFilterMode(mode, config.filter.mode);
     config.filter.validate();
 
     ModelOptions model_options;
@@ -167,7 +172,7 @@ int main(int argc, char** argv) {
     const long ticks = uniform ? static_cast<long>(frames.size() - 1) * substeps + 1
                                : std::lround(std::floor((t_end - t0) / dt + 1e-9)) + 1;
 
-    DynamicsFilter filter(*model, config.filter);
+    DynamicsFilter filter(*model, config.filter, proxqp::factory());
     io::FilteredMotionWriter writer(output_path, model->info());
     BodyPositionWriter bodies(bodies_path, model->info());
     tools::RunSummary summary(model->info());

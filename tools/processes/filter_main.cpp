@@ -17,6 +17,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "dynfilter/backends/make_model.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/io/config.hpp"
 #include "dynfilter/lcm/messages.hpp"
@@ -139,6 +140,10 @@ int main(int argc, char** argv) {
   app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
   app.add_option("--backend", backend, "dart or ode")->check(CLI::IsMember(availableBackends()));
   app.add_option("-c,--config", config_path, "YAML configuration");
+  std::string mode;
+  app.add_option("--mode", mode, "solver: paper (Eq. 21-23) or qp (contact-consistent QP); "
+                 "overrides the config's mode")
+      ->check(CLI::IsMember({"paper", "qp"}));
   app.add_option("--rate-hz", rate_hz, "control rate")->check(CLI::Range(1.0, 10000.0));
   app.add_option("--duration-s", duration_s, "stop after this long (0: until SIGINT/SIGTERM)");
   app.add_flag("--use-measured-state", rt_options.use_measured_state,
@@ -162,6 +167,7 @@ int main(int argc, char** argv) {
   try {
     io::FilterConfig config = config_path.empty() ? io::FilterConfig{} : io::loadFilterConfig(config_path);
     config.filter.dt_s = 1.0 / rate_hz;
+    if (!mode.empty()) parseFilterMode(mode, config.filter.mode);
     ModelOptions model_options;
     model_options.environment = config.environment;
     if (fixed_base) {
@@ -174,7 +180,7 @@ int main(int argc, char** argv) {
     ReferenceFrame hold(info.nq, info.nv);
     hold.q = info.neutralConfiguration();
     if (info.floating_base) hold.q[2] = standingBaseHeight(*model, hold.q);
-    realtime::RealtimeFilter rt(*model, config.filter, rt_options, hold);
+    realtime::RealtimeFilter rt(*model, config.filter, rt_options, hold, proxqp::factory());
 
     lcm::LCM lcm(url);
     if (!lcm.good()) throw std::runtime_error("cannot open LCM (" + (url.empty() ? std::string("default URL") : url) + ")");
@@ -198,6 +204,7 @@ int main(int argc, char** argv) {
     std::vector<std::uint8_t> buffer;
     msg::CommandStamps stamps;
     msg::StatusReport report;
+    report.mode = toString(config.filter.mode);
     long missed = 0, received = 0, rejected = 0, dropped = 0;
     const char* last_reject = nullptr;
     std::int64_t state_utime = 0;

@@ -1,5 +1,7 @@
 #include "dynfilter/lcm/messages.hpp"
 
+#include "dynfilter/core/contact_qp.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -550,7 +552,8 @@ void fillContactState(const ModelInfo& info, const FilterOutput& output, std::in
 void describeStatus(std::uint32_t status, std::string& out) {
   static constexpr const char* kBitNames[] = {
       "contact overflow", "rank deficient", "non-finite solve", "reference invalid",
-      "re-seeded",        "impact",         "torque clamped",   "stale reference"};
+      "re-seeded",        "impact",         "torque clamped",   "stale reference",
+      "QP fallback",      "QP relaxed"};
   constexpr std::uint32_t kKnownBits = (1u << (sizeof kBitNames / sizeof kBitNames[0])) - 1u;
   out.clear();
   if (status == kStatusOk) {
@@ -580,7 +583,19 @@ void fillFilterStatus(const FilterOutput& output, const StatusReport& report,
     msg.reason += ": ";
     msg.reason += report.detail;
   }
+  if ((output.status & (kStatusQpFallback | kStatusQpRelaxed)) != 0 &&
+      output.qp_violated != 0) {
+    char families[96];
+    msg.reason += " (QP violated: ";
+    msg.reason += describeQpFamilies(output.qp_violated, families, sizeof families);
+    msg.reason += ")";
+  }
   msg.mode = report.mode != nullptr ? report.mode : "";
+  msg.qp_status = output.qp_status;
+  msg.qp_iterations = output.qp_iterations;
+  msg.qp_violated = static_cast<std::int32_t>(output.qp_violated);
+  msg.qp_solves = static_cast<std::int64_t>(output.counters.qp_solves);
+  msg.qp_fallbacks = static_cast<std::int64_t>(output.counters.qp_fallbacks);
   const int links = std::max(0, std::min(output.num_contacts, static_cast<int>(output.contacts.size())));
   int rows = report.task_rows;
   for (int c = 0; c < links; ++c) rows += static_cast<int>(output.contacts[static_cast<std::size_t>(c)].kind);

@@ -182,6 +182,30 @@ class Parser {
             });
   }
 
+  void readQp(const Entry& e, QpModeOptions& q) {
+    readMap(e,
+            {"accel_weight", "force_weight", "torque_weight", "min_normal_force_n",
+             "friction_facets", "cop_margin_m", "liftoff_clearance_m", "release_transition_s",
+             "joint_limit_horizon_s", "enforce_torque_limits", "enforce_joint_limits", "eps_abs",
+             "max_iterations", "warm_start"},
+            [&](const std::string& k, const Entry& v) {
+              if (k == "accel_weight") q.accel_weight = number(v);
+              if (k == "force_weight") q.force_weight = number(v);
+              if (k == "torque_weight") q.torque_weight = number(v);
+              if (k == "min_normal_force_n") q.min_normal_force_n = number(v);
+              if (k == "friction_facets") q.friction_facets = integer(v);
+              if (k == "cop_margin_m") q.cop_margin_m = number(v);
+              if (k == "liftoff_clearance_m") q.liftoff_clearance_m = number(v);
+              if (k == "release_transition_s") q.release_transition_s = number(v);
+              if (k == "joint_limit_horizon_s") q.joint_limit_horizon_s = number(v);
+              if (k == "enforce_torque_limits") q.enforce_torque_limits = boolean(v);
+              if (k == "enforce_joint_limits") q.enforce_joint_limits = boolean(v);
+              if (k == "eps_abs") q.solver.eps_abs = number(v);
+              if (k == "max_iterations") q.solver.max_iterations = integer(v);
+              if (k == "warm_start") q.solver.warm_start = boolean(v);
+            });
+  }
+
   void readGround(const Entry& e, Environment& env) {
     if (e.node.IsScalar() && e.node.Scalar() == "none") {
       env.has_ground = false;
@@ -257,9 +281,13 @@ class Parser {
       fail(top.mark, "", "expected a map of options, got " + describe(root));
     FilterOptions& f = config.filter;
     readMap(top,
-            {"dt_s", "feedback", "task", "contacts", "solver", "max_base_error_m", "environment"},
+            {"dt_s", "mode", "feedback", "task", "contacts", "solver", "qp", "max_base_error_m",
+             "environment"},
             [&](const std::string& k, const Entry& v) {
               if (k == "dt_s") f.dt_s = number(v);
+              if (k == "mode" && !parseFilterMode(text(v), f.mode))
+                fail(v.mark, v.path, "expected paper or qp, got \"" + text(v) + "\"");
+              if (k == "qp") readQp(v, f.qp);
               if (k == "feedback") readFeedback(v, f.feedback);
               if (k == "task") readTask(v, f.task);
               if (k == "contacts") readContacts(v, f.contacts);

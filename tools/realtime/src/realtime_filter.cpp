@@ -5,10 +5,11 @@
 namespace dynfilter::realtime {
 
 RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,
-                               const RealtimeOptions& options, const ReferenceFrame& hold_posture)
+                               const RealtimeOptions& options, const ReferenceFrame& hold_posture,
+                               const QpSolverFactory& qp_solver)
     : model_(model),
       options_(options),
-      filter_(model, filter_options),
+      filter_(model, filter_options, qp_solver),
       buffer_(model.nq(), model.nv(), model.info().floating_base),
       hold_(hold_posture),
       sample_(model.nq(), model.nv()),

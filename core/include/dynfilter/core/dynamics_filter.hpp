@@ -8,7 +8,8 @@
 ///  3. task feedback of the point P, Eq. 18–20, with a weighted, singularity-robust
 ///     pseudo-inverse (or, with
 ///     TaskPointOptions::as_constraint_rows, as the task rows of Eq. 16);
-///  4. Eq. 12 (or 16) solved by Eq. 21–23 (paper_solver.hpp);
+///  4. Eq. 12 (or 16) solved by Eq. 21–23 (paper_solver.hpp), or in the QP mode by the
+///     contact-consistent QP (contact_qp.hpp) with the paper solve as its fallback;
 ///  5. semi-implicit Euler on the manifold: v ← v + v̇ dt, q ← q ⊕ v dt.
 /// The output pairs the state at which Eq. 12 was solved with v̇, τ_J and τ_C, so that any
 /// backend can re-evaluate Eq. 12 on it. step() does not allocate on the heap.
@@ -20,6 +21,7 @@
 #include <Eigen/Core>
 
 #include "dynfilter/core/constrained_dynamics.hpp"
+#include "dynfilter/core/contact_qp.hpp"
 #include "dynfilter/core/contact.hpp"
 #include "dynfilter/core/dynamics_model.hpp"
 #include "dynfilter/core/filter_options.hpp"
@@ -33,8 +35,11 @@ namespace dynfilter {
 class DynamicsFilter {
  public:
   /// The filter uses @p model for every query and changes its state; it must outlive the
-  /// filter. Throws std::invalid_argument on invalid options or an unknown task body.
-  DynamicsFilter(IDynamicsModel& model, const FilterOptions& options);
+  /// filter. FilterMode::kQp needs @p qp_solver (e.g. dynfilter::proxqp::factory()).
+  /// Throws std::invalid_argument on invalid options, an unknown task body, or the QP mode
+  /// without a solver factory.
+  DynamicsFilter(IDynamicsModel& model, const FilterOptions& options,
+                 const QpSolverFactory& qp_solver = {});
 
   /// Starts from the reference frame's state. When the model then penetrates the
   /// environment, the base is raised along world z until it no longer does (a floating
@@ -61,6 +66,9 @@ class DynamicsFilter {
   bool referenceValid(const ReferenceFrame& reference) const;
   void desiredAcceleration(const ReferenceFrame& reference);
   void reseed(const ReferenceFrame& reference);
+  // QP mode: solve, or fall back to the paper solve with clamped torques.
+  std::uint32_t solveQp(Eigen::Ref<Eigen::MatrixXd> H_C, Eigen::Ref<Eigen::VectorXd> u_C,
+                        Eigen::Ref<Eigen::VectorXd> tau_C);
 
   IDynamicsModel& model_;
   FilterOptions options_;
@@ -72,6 +80,7 @@ class DynamicsFilter {
   VirtualLinkSet links_;
   ContactList candidates_;
   PaperSolver solver_;
+  std::unique_ptr<ContactQp> contact_qp_;  // QP mode only
   ConstrainedDynamics constrained_;
   FilterOutput out_;
 

@@ -49,6 +49,7 @@ class DynamicsSimulator {
   IDynamicsModel& model_;
   double dt_s_;
   bool floating_;
+  double release_force_n_;
   VirtualLinkSet links_;
   ContactList candidates_;
   ConstrainedDynamics constrained_;

@@ -7,6 +7,8 @@
 
 #include <Eigen/Core>
 
+#include "dynfilter/core/qp_solver.hpp"
+
 namespace dynfilter {
 
 /// Joint-space feedback (Eq. 17): v̇ᵈ⁰ = v̇ʳᵉᶠ + K_D (vʳᵉᶠ − v) + K_P (qʳᵉᶠ ⊖ q).
@@ -60,8 +62,51 @@ struct PaperSolverOptions {
   double sr_damping = 1e-4;    ///< k of the SR inverse V_G^* = V_Gᵀ (V_G V_Gᵀ + k I)⁻¹
 };
 
+/// How Eq. 12 is solved each tick.
+enum class FilterMode : int {
+  kPaper = 0,  ///< the paper's Eq. 21–23: bilateral virtual links, no limits
+  kQp = 1,     ///< the contact-consistent QP (contact_qp.hpp): unilateral, friction, CoP, limits
+};
+
+/// Parses "paper" / "qp"; returns false on anything else.
+bool parseFilterMode(const std::string& text, FilterMode& mode);
+const char* toString(FilterMode mode);
+
+/// The QP mode (FilterMode::kQp): the paper's objective and equality rows plus the
+/// inequalities of a physical contact and of the robot's limits.
+struct QpModeOptions {
+  /// Objective ½ w_a ‖v̇ − v̇ᵈ‖² + ½ w_f ‖τ_C‖² + ½ w_τ ‖τ_J‖².
+  double accel_weight = 1.0;    ///< w_a
+  double force_weight = 1e-6;   ///< w_f (per N² and (N m)²)
+  double torque_weight = 1e-6;  ///< w_τ (per (N m)²)
+  /// Normal force of every held contact ≥ this (N); a link sitting at it for
+  /// ContactOptions::release_ticks ticks is released.
+  double min_normal_force_n = 1.0;
+  /// Facets of the linearised friction cone (inscribed pyramid), ≥ 3.
+  int friction_facets = 4;
+  /// The centre of pressure stays this far inside the support rectangle of a face or
+  /// edge contact (m).
+  double cop_margin_m = 0.0;
+  /// When the reference lifts a held contact point this high above its anchor (m), the
+  /// link's normal-force bound ramps down to the minimum over release_transition_s, then
+  /// the link is released.
+  double liftoff_clearance_m = 0.02;
+  double release_transition_s = 0.05;
+  /// Joint position limits become acceleration bounds that stop the joint at its limit
+  /// within this horizon (s, ≥ dt); velocity limits bound the acceleration over one tick.
+  double joint_limit_horizon_s = 0.05;
+  /// The limits never demand a deceleration beyond this (rad/s², m/s²): torque limits
+  /// are hard, joint limits give way (a joint arriving too fast overshoots a little).
+  double joint_limit_max_decel = 50.0;
+  bool enforce_torque_limits = true;
+  bool enforce_joint_limits = true;
+  QpSolverSettings solver;
+};
+
 struct FilterOptions {
   double dt_s = 1e-3;  ///< control tick (s)
+  FilterMode mode = FilterMode::kPaper;
+  QpModeOptions qp;
   JointFeedbackGains feedback;
   TaskPointOptions task;
   ContactOptions contacts;

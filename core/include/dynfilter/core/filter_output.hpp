@@ -24,6 +24,26 @@ enum FilterStatusBits : std::uint32_t {
   kStatusImpact = 1u << 5,            ///< a plastic impact reset the velocity this tick
   kStatusTorqueClamped = 1u << 6,     ///< a published torque was clamped to its URDF limit
   kStatusStaleReference = 1u << 7,    ///< no reference for the timeout: holding posture
+  /// QP mode: the QP was infeasible, hit its iteration limit or violated a constraint
+  /// family (FilterOutput::qp_violated); the tick used the paper-mode solution with
+  /// torques clamped to their limits (Eq. 14 re-solved so that Eq. 12 still holds).
+  kStatusQpFallback = 1u << 8,
+  /// QP mode: the full QP was infeasible; this tick's answer is that of a relaxation
+  /// (FilterOutput::qp_relaxation; FilterOutput::qp_violated says what the full QP violated).
+  kStatusQpRelaxed = 1u << 9,
+};
+
+/// Running counters since the filter was made (every tick reports them).
+struct FilterCounters {
+  std::uint64_t ticks = 0;
+  std::uint64_t impacts = 0;              ///< ticks with a plastic impact
+  std::uint64_t reseeds = 0;              ///< divergence or non-finite re-seeds
+  std::uint64_t invalid_references = 0;   ///< ticks whose reference was rejected
+  std::uint64_t links_released = 0;       ///< virtual links released
+  std::uint64_t qp_solves = 0;            ///< QP mode: QPs solved and accepted
+  std::uint64_t qp_fallbacks = 0;         ///< QP mode: ticks that fell back to paper mode
+  std::uint64_t qp_relaxed = 0;           ///< QP mode: ticks answered by a relaxation
+  std::uint64_t qp_iterations = 0;        ///< QP mode: total solver iterations
 };
 
 /// Kinds of virtual link, by the number of constrained axes of the contact frame.
@@ -57,6 +77,14 @@ struct FilterOutput {
   double solve_time_s = 0.0;     ///< Eq. 21–23 only
   double tick_time_s = 0.0;      ///< the whole tick
   double max_penetration_m = 0.0;
+  // QP mode (FilterMode::kQp); zero in paper mode.
+  int qp_status = 0;                ///< QpSolveStatus of this tick's solve (0 solved)
+  int qp_iterations = 0;            ///< solver iterations this tick
+  std::uint32_t qp_violated = 0;    ///< QpConstraintFamily bits the full QP's answer violated
+  /// Relaxations used this tick (bits): 1 joint-limit bounds dropped, 2 release ramps
+  /// dropped, 4 contacts released.
+  std::uint32_t qp_relaxation = 0;
+  FilterCounters counters;
 
   FilterOutput() = default;
   FilterOutput(int nq, int nv, int nj, int max_links)

@@ -41,8 +41,17 @@ struct VirtualLink {
   Eigen::Isometry3d X_WA = Eigen::Isometry3d::Identity();  ///< anchor in world
   int num_axes = 3;
   std::array<int, 6> axes{};  ///< constrained axes of [x, y, z, rx, ry, rz] in A
+  /// Support rectangle of the link in A's xy, relative to A's origin (m): the extent of
+  /// the collision points at creation (zero for a point, along x only for an edge).
+  Eigen::Vector2d support_min = Eigen::Vector2d::Zero();
+  Eigen::Vector2d support_max = Eigen::Vector2d::Zero();
   int low_force_ticks = 0;
   bool created_this_tick = false;
+  double normal_force_n = 0.0;  ///< normal force of the last solve (N)
+  /// QP mode release ramp: started when the reference lifts the contact point off.
+  bool releasing = false;
+  double release_elapsed_s = 0.0;
+  double release_start_force_n = 0.0;
 };
 
 /// Indices of the constrained axes of a link kind, in A's [x, y, z, rx, ry, rz].
@@ -61,6 +70,10 @@ class VirtualLinkSet {
   /// Forgets every link and released pair.
   void clear();
 
+  /// Releases every held link (the contacts broke): the pairs re-engage only when they
+  /// penetrate again by reengage_depth_m.
+  void releaseAll();
+
   int size() const { return size_; }
   const VirtualLink& operator[](int i) const { return links_[static_cast<std::size_t>(i)]; }
   /// Total constrained rows N_C.
@@ -72,11 +85,22 @@ class VirtualLinkSet {
   void assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::MatrixXd> H_C,
                 Eigen::Ref<Eigen::VectorXd> u_C);
 
+  /// QP mode: with @p model posed at the reference state, starts the release ramp of every
+  /// held link whose contact point there lies more than @p clearance_m above its anchor
+  /// (along the anchor's normal). Returns the number of ramps started.
+  int startLiftoffReleases(const IDynamicsModel& model, double clearance_m);
+
+  /// Upper bound on link @p i's normal force this tick: +∞, or during a release ramp the
+  /// force at the ramp's start decreasing linearly to @p min_force_n over @p transition_s.
+  double normalForceUpperBound(int i, double min_force_n, double transition_s) const;
+
   /// After a solve: converts τ_C (N_C, in anchor axes) to per-link outputs, counts low
-  /// normal force and releases links that stayed below the threshold.
+  /// normal force (< @p low_force_n) and releases links that stayed low for release_ticks
+  /// ticks or whose release ramp (advanced by @p dt_s) has run @p transition_s.
   /// @param contacts capacity ≥ size(); returns the number written.
   int finishTick(const IDynamicsModel& model, const Eigen::Ref<const Eigen::VectorXd>& tau_C,
-                 std::vector<ContactOutput>& contacts, bool allow_release);
+                 std::vector<ContactOutput>& contacts, bool allow_release, double low_force_n,
+                 double dt_s, double transition_s);
 
  private:
   struct ReleasedPair {

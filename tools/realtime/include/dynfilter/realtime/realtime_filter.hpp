@@ -41,7 +41,8 @@ class RealtimeFilter {
  public:
   /// Holds @p hold_posture (a reference frame of the model) until the first frame arrives.
   RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,
-                 const RealtimeOptions& options, const ReferenceFrame& hold_posture);
+                 const RealtimeOptions& options, const ReferenceFrame& hold_posture,
+                 const QpSolverFactory& qp_solver = {});
 
   /// A validated reference frame; frame.time_s is on the sender's clock (s). @p now_s is
   /// the local clock at reception. Returns false (counted as rejected) when its time is

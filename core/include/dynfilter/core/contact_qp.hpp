@@ -1,0 +1,136 @@
+#pragma once
+/// @file
+/// The QP mode's solve of Eq. 12 (beyond the paper): the paper's objective and equality
+/// rows, plus the inequalities of physical contact and of the robot's limits.
+///
+/// Unknowns x = (v̇ (nv), τ_C (N_C, the virtual links' wrench rows in anchor axes)); the
+/// joint torques are eliminated, τ_J = M x + b_J with M = [A_J, −H_C,Jᵀ] (the joint rows
+/// of Eq. 12), so the joint rows hold exactly by construction.
+///
+///   minimise   ½ w_a ‖v̇ − v̇ᵈ‖² + ½ w_f ‖τ_C‖² + ½ w_τ ‖τ_J‖²
+///   subject to A_b v̇ − H_C,bᵀ τ_C = −b_b          (base rows of Eq. 12, nb)
+///              H_C v̇ = u_C                         (contact acceleration rows, N_C)
+///              f_z ≥ f_min, f_z ≤ ramp bound      (unilateral; release ramp, per link)
+///              d_kᵀ f_t ≤ μ cos(π/K) f_z, k < K   (inscribed friction pyramid, per link)
+///              CoP of faces and edges inside the support rectangle (minus a margin)
+///              |τ_J| ≤ τ_max                      (URDF effort)
+///              v̇_J within the bounds that keep q and q̇ in their limits over the tick
+///
+/// When that QP fails, it is relaxed step by step (ContactQpReport); the caller falls back
+/// to the paper solve only when even the last relaxation fails.
+///
+/// Problem sizes are fixed per size class (force capacity 12, 24, 6·max_links: two flat
+/// feet need no padding); each class has its own solver instance, warm-started from its
+/// previous solution. Nothing allocates per tick.
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "dynfilter/core/environment.hpp"
+#include "dynfilter/core/filter_options.hpp"
+#include "dynfilter/core/model_info.hpp"
+#include "dynfilter/core/qp_solver.hpp"
+#include "dynfilter/core/virtual_links.hpp"
+
+namespace dynfilter {
+
+/// Constraint families of the QP, as bits (reported when one is violated).
+enum QpConstraintFamily : std::uint32_t {
+  kQpFamilyNone = 0,
+  kQpFamilyEquality = 1u << 0,    ///< base or contact rows of Eq. 12
+  kQpFamilyUnilateral = 1u << 1,  ///< normal force below the minimum (or above the ramp)
+  kQpFamilyFriction = 1u << 2,    ///< tangential force outside the friction pyramid
+  kQpFamilyCop = 1u << 3,         ///< centre of pressure outside the support
+  kQpFamilyTorque = 1u << 4,      ///< joint torque beyond its limit
+  kQpFamilyJointLimit = 1u << 5,  ///< joint acceleration beyond the position/velocity bounds
+};
+
+/// Writes the names of the set bits of @p families, comma-separated ("unilateral,torque"),
+/// into @p buffer (NUL-terminated, truncated to @p size); returns @p buffer.
+const char* describeQpFamilies(std::uint32_t families, char* buffer, int size);
+
+/// What one QP solve did.
+struct ContactQpReport {
+  QpSolveInfo info;
+  std::uint32_t violated = kQpFamilyNone;  ///< families violated by the returned x
+  int force_capacity = 0;                  ///< size class used
+  bool ok = false;                         ///< solved and every family satisfied
+  /// Relaxations, tried in this order while the QP fails (each keeps the previous ones):
+  /// 1. joint-limit acceleration bounds dropped (a joint at its stop gets the stop's torque);
+  bool joint_limits_dropped = false;
+  /// 2. the release ramps' upper force bounds dropped;
+  bool ramps_dropped = false;
+  /// 3. every virtual link released (the contacts break): the caller must release them.
+  bool contacts_released = false;
+  std::uint32_t violated_first = kQpFamilyNone;  ///< families the first (full) attempt violated
+};
+
+class ContactQp {
+ public:
+  /// Makes one solver per size class with @p factory. Throws std::invalid_argument when
+  /// the factory is empty, and whatever the factory throws.
+  ContactQp(const ModelInfo& info, int max_links, double dt_s, const QpModeOptions& options,
+            const QpSolverFactory& factory);
+  ~ContactQp();
+  ContactQp(const ContactQp&) = delete;
+  ContactQp& operator=(const ContactQp&) = delete;
+
+  /// Solves the QP above for the links of @p links (their rows in the order of H_C).
+  /// @param A nv × nv, @param b nv, @param H_C N_C × nv, @param u_C N_C, @param q nq,
+  /// @param v nv (the state the rows were built at), @param vdot_desired nv.
+  /// Writes vdot (nv), tau_C (N_C), tau_J (nj) from the solver's x even when !ok.
+  ContactQpReport solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                        const Eigen::Ref<const Eigen::VectorXd>& b,
+                        const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+                        const Eigen::Ref<const Eigen::VectorXd>& u_C, const VirtualLinkSet& links,
+                        const Environment& environment, const Eigen::Ref<const Eigen::VectorXd>& q,
+                        const Eigen::Ref<const Eigen::VectorXd>& v,
+                        const Eigen::Ref<const Eigen::VectorXd>& vdot_desired,
+                        Eigen::Ref<Eigen::VectorXd> vdot, Eigen::Ref<Eigen::VectorXd> tau_C,
+                        Eigen::Ref<Eigen::VectorXd> tau_J);
+
+  /// Checks a candidate (v̇, τ_C, τ_J) against Eq. 12 and the bounds built by the last
+  /// solve() (the QP's own answer, or a fallback's). Returns the violated families' bits.
+  std::uint32_t check(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                      const Eigen::Ref<const Eigen::VectorXd>& b,
+                      const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+                      const Eigen::Ref<const Eigen::VectorXd>& u_C,
+                      const Eigen::Ref<const Eigen::VectorXd>& vdot,
+                      const Eigen::Ref<const Eigen::VectorXd>& tau_C,
+                      const Eigen::Ref<const Eigen::VectorXd>& tau_J) const;
+
+  /// Joint acceleration bounds of the last solve (dim nj; ±kQpInfinity when unbounded).
+  const Eigen::VectorXd& jointAccelLower() const { return accel_lo_; }
+  const Eigen::VectorXd& jointAccelUpper() const { return accel_hi_; }
+
+ private:
+  struct SizeClass;
+  void buildJointBounds(const Eigen::Ref<const Eigen::VectorXd>& q,
+                        const Eigen::Ref<const Eigen::VectorXd>& v);
+
+  QpModeOptions options_;
+  double dt_s_;
+  int nv_, nb_, nj_, max_links_;
+  std::vector<std::unique_ptr<SizeClass>> classes_;
+  Eigen::VectorXd accel_lo_, accel_hi_;  // nj
+  Eigen::VectorXd q_lower_, q_upper_, v_max_, tau_max_;  // nj, from ModelInfo
+  Eigen::VectorXd facet_cos_, facet_sin_;               // friction pyramid directions
+  Eigen::MatrixXd M_;                    // nj × (nv + capacity)
+  mutable Eigen::VectorXd residual_;     // nv scratch of check()
+  // Per-link bounds of the last solve, for check().
+  struct LinkBounds {
+    int row = 0;        // first τ_C row of the link
+    int num_axes = 3;   // 3 (point), 5 (edge), 6 (face)
+    double mu = 0.0;
+    double f_min = 0.0, f_max = 0.0;
+    Eigen::Vector2d cop_min = Eigen::Vector2d::Zero(), cop_max = Eigen::Vector2d::Zero();
+  };
+  std::vector<LinkBounds> link_bounds_;
+  int num_links_ = 0;
+  double equality_tolerance_ = 0.0;  // N, from the body weight
+};
+
+}  // namespace dynfilter

@@ -1,0 +1,397 @@
+#include "dynfilter/core/contact_qp.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <cstdlib>
+#include <limits>
+#include <stdexcept>
+
+#include "dynfilter/core/lie_group.hpp"
+
+namespace dynfilter {
+namespace {
+
+constexpr double kForceTolerance = 1e-6;  // N and N m: checks of the inequality families
+constexpr double kAccelTolerance = 1e-6;  // m/s², rad/s²
+constexpr double kGravity = 9.81;
+constexpr double kPi = 3.14159265358979323846;
+
+double finiteOr(double x, double fallback) { return std::isfinite(x) ? x : fallback; }
+
+}  // namespace
+
+struct ContactQp::SizeClass {
+  int capacity = 0;       // τ_C slots
+  int link_capacity = 0;  // links whose rows fit
+  DenseQp qp;
+  std::unique_ptr<IQpSolver> solver;
+  Eigen::VectorXd x;
+  std::uint64_t signature = 0;  // which links, of which kinds, the last solve had
+};
+
+const char* describeQpFamilies(std::uint32_t families, char* buffer, int size) {
+  static constexpr struct {
+    std::uint32_t bit;
+    const char* name;
+  } kNames[] = {{kQpFamilyEquality, "equality"},   {kQpFamilyUnilateral, "unilateral"},
+                {kQpFamilyFriction, "friction"},   {kQpFamilyCop, "cop"},
+                {kQpFamilyTorque, "torque"},       {kQpFamilyJointLimit, "joint_limit"}};
+  if (size <= 0) return buffer;
+  buffer[0] = '\0';
+  int used = 0;
+  for (const auto& entry : kNames) {
+    if (!(families & entry.bit)) continue;
+    const int written = std::snprintf(buffer + used, static_cast<std::size_t>(size - used), "%s%s",
+                                      used > 0 ? "," : "", entry.name);
+    if (written < 0 || used + written >= size) break;
+    used += written;
+  }
+  return buffer;
+}
+
+ContactQp::ContactQp(const ModelInfo& info, int max_links, double dt_s,
+                     const QpModeOptions& options, const QpSolverFactory& factory)
+    : options_(options),
+      dt_s_(dt_s),
+      nv_(info.nv),
+      nb_(info.floating_base ? kFloatingBaseNv : 0),
+      nj_(info.nj),
+      max_links_(max_links),
+      q_lower_(info.q_lower),
+      q_upper_(info.q_upper),
+      v_max_(info.v_max),
+      tau_max_(info.tau_max) {
+  if (!factory)
+    throw std::invalid_argument(
+        "filter mode qp needs a QP solver: pass a QpSolverFactory (e.g. dynfilter::proxqp::factory())");
+  const int K = options.friction_facets;
+  facet_cos_.resize(K);
+  facet_sin_.resize(K);
+  for (int k = 0; k < K; ++k) {
+    const double theta = 2.0 * kPi * k / K;
+    facet_cos_[k] = std::cos(theta);
+    facet_sin_[k] = std::sin(theta);
+  }
+  // Size classes: two flat feet (12 rows) need no padding; then 24; then the capacity.
+  const int max_rows = 6 * max_links;
+  for (int capacity : {12, 24, max_rows}) {
+    capacity = std::min(capacity, max_rows);
+    if (!classes_.empty() && classes_.back()->capacity >= capacity) continue;
+    auto c = std::make_unique<SizeClass>();
+    c->capacity = capacity;
+    c->link_capacity = std::min(max_links, capacity / 3);
+    const int n = nv_ + capacity;
+    const int n_in = nj_ + c->link_capacity * (K + 4);
+    c->qp = DenseQp(n, nb_ + capacity, n_in);
+    c->solver = factory(n, nb_ + capacity, n_in, options.solver);
+    if (!c->solver) throw std::invalid_argument("the QP solver factory returned no solver");
+    c->x.setZero(n);
+    classes_.push_back(std::move(c));
+  }
+  accel_lo_.setConstant(nj_, -kQpInfinity);
+  accel_hi_.setConstant(nj_, kQpInfinity);
+  M_.setZero(nj_, nv_ + max_rows);
+  residual_.setZero(nv_ + max_rows);
+  link_bounds_.resize(static_cast<std::size_t>(max_links));
+  equality_tolerance_ = 1e-8 * std::max(info.total_mass, 1.0) * kGravity;
+}
+
+ContactQp::~ContactQp() = default;
+
+void ContactQp::buildJointBounds(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                 const Eigen::Ref<const Eigen::VectorXd>& v) {
+  const double h = options_.joint_limit_horizon_s;
+  const int q0 = nb_ > 0 ? 7 : 0;
+  for (int j = 0; j < nj_; ++j) {
+    double lo = -kQpInfinity, hi = kQpInfinity;
+    if (options_.enforce_joint_limits) {
+      const double qj = q[q0 + j], vj = v[nb_ + j];
+      // Demands are capped at the deceleration the joint is credited with, so that the
+      // bounds never ask more than that of the torque limits (which are hard).
+      const double cap = options_.joint_limit_max_decel;
+      if (std::isfinite(v_max_[j])) {
+        hi = std::min(hi, std::max((v_max_[j] - vj) / dt_s_, -cap));
+        lo = std::max(lo, std::min((-v_max_[j] - vj) / dt_s_, cap));
+      }
+      // Stop at the limit within the horizon: q + v h + ½ a h² within [q_lower, q_upper].
+      if (std::isfinite(q_upper_[j]))
+        hi = std::min(hi, std::max(2.0 * (q_upper_[j] - qj - vj * h) / (h * h), -cap));
+      if (std::isfinite(q_lower_[j]))
+        lo = std::max(lo, std::min(2.0 * (q_lower_[j] - qj - vj * h) / (h * h), cap));
+      if (lo > hi) lo = hi = 0.5 * (lo + hi);  // both sides cannot hold: meet half way
+    }
+    accel_lo_[j] = lo;
+    accel_hi_[j] = hi;
+  }
+}
+
+ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                                 const Eigen::Ref<const Eigen::VectorXd>& b,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+                                 const Eigen::Ref<const Eigen::VectorXd>& u_C,
+                                 const VirtualLinkSet& links, const Environment& environment,
+                                 const Eigen::Ref<const Eigen::VectorXd>& q,
+                                 const Eigen::Ref<const Eigen::VectorXd>& v,
+                                 const Eigen::Ref<const Eigen::VectorXd>& vdot_desired,
+                                 Eigen::Ref<Eigen::VectorXd> vdot, Eigen::Ref<Eigen::VectorXd> tau_C,
+                                 Eigen::Ref<Eigen::VectorXd> tau_J) {
+  ContactQpReport report;
+  const int nc = static_cast<int>(H_C.rows());
+  const int num_links = std::min(links.size(), max_links_);
+  SizeClass* size_class = classes_.back().get();
+  for (const auto& c : classes_) {
+    if (c->capacity >= nc && c->link_capacity >= num_links) {
+      size_class = c.get();
+      break;
+    }
+  }
+  SizeClass& sc = *size_class;
+  report.force_capacity = sc.capacity;
+  DenseQp& qp = sc.qp;
+  const int cap = sc.capacity, K = options_.friction_facets;
+  const double wa = options_.accel_weight, wf = options_.force_weight, wt = options_.torque_weight;
+
+  buildJointBounds(q, v);
+
+  // τ_J = M x + b_J with M = [A_J, −H_C,Jᵀ].
+  auto M = M_.leftCols(nv_ + nc);
+  M.leftCols(nv_) = A.bottomRows(nj_);
+  M.rightCols(nc) = -H_C.rightCols(nj_).transpose();
+  const auto b_J = b.tail(nj_);
+
+  // Objective.
+  qp.H.setZero();
+  if (wt > 0.0) qp.H.topLeftCorner(nv_ + nc, nv_ + nc).noalias() = wt * M.transpose() * M;
+  qp.H.diagonal().head(nv_).array() += wa;
+  qp.H.diagonal().tail(cap).array() += wf;
+  qp.g.setZero();
+  qp.g.head(nv_) = -wa * vdot_desired;
+  if (wt > 0.0) qp.g.head(nv_ + nc).noalias() += wt * M.transpose() * b_J;
+
+  // Equalities: base rows, contact rows, unused τ_C slots = 0.
+  qp.A.setZero();
+  qp.A.topLeftCorner(nb_, nv_) = A.topRows(nb_);
+  qp.A.block(0, nv_, nb_, nc) = -H_C.leftCols(nb_).transpose();
+  qp.A.block(nb_, 0, nc, nv_) = H_C;
+  for (int k = nc; k < cap; ++k) qp.A(nb_ + k, nv_ + k) = 1.0;
+  qp.b.setZero();
+  qp.b.head(nb_) = -b.head(nb_);
+  qp.b.segment(nb_, nc) = u_C;
+
+  // Inequalities: torques, then per link friction and CoP; unused rows unbounded.
+  qp.C.setZero();
+  qp.l.setConstant(-kQpInfinity);
+  qp.u.setConstant(kQpInfinity);
+  qp.C.topLeftCorner(nj_, nv_ + nc) = M;
+  if (options_.enforce_torque_limits) {
+    for (int j = 0; j < nj_; ++j) {
+      const double limit = finiteOr(tau_max_[j], kQpInfinity);
+      qp.l[j] = -limit - b_J[j];
+      qp.u[j] = limit - b_J[j];
+    }
+  }
+  qp.x_lower.setConstant(-kQpInfinity);
+  qp.x_upper.setConstant(kQpInfinity);
+  qp.x_lower.segment(nb_, nj_) = accel_lo_;
+  qp.x_upper.segment(nb_, nj_) = accel_hi_;
+
+  int row = nj_;
+  int slot = 0;
+  num_links_ = num_links;
+  const double cone_scale = std::cos(kPi / K);
+  for (int i = 0; i < num_links; ++i) {
+    const VirtualLink& link = links[i];
+    LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+    lb.row = slot;
+    lb.num_axes = link.num_axes;
+    lb.mu = link.object == kGroundObject || link.object >= static_cast<int>(environment.boxes.size())
+                ? environment.ground.friction
+                : environment.boxes[static_cast<std::size_t>(link.object)].friction;
+    lb.f_min = options_.min_normal_force_n;
+    lb.f_max = links.normalForceUpperBound(i, options_.min_normal_force_n,
+                                           options_.release_transition_s);
+    const double margin = options_.cop_margin_m;
+    lb.cop_min = link.support_min.array() + margin;
+    lb.cop_max = link.support_max.array() - margin;
+    for (int d = 0; d < 2; ++d) {
+      if (lb.cop_min[d] > lb.cop_max[d]) lb.cop_min[d] = lb.cop_max[d] = 0.5 * (lb.cop_min[d] + lb.cop_max[d]);
+    }
+    const int fx = nv_ + slot, fy = fx + 1, fz = fx + 2;
+    qp.x_lower[fz] = lb.f_min;
+    qp.x_upper[fz] = finiteOr(lb.f_max, kQpInfinity);
+    for (int k = 0; k < K; ++k, ++row) {
+      qp.C(row, fx) = facet_cos_[k];
+      qp.C(row, fy) = facet_sin_[k];
+      qp.C(row, fz) = -lb.mu * cone_scale;
+      qp.u[row] = 0.0;
+    }
+    // CoP along A's x: cop_x = −m_y / f_z; along y (faces): cop_y = m_x / f_z.
+    if (link.kind != ContactKind::kPoint) {
+      const int my = link.kind == ContactKind::kFace ? fx + 4 : fx + 3;
+      qp.C(row, my) = -1.0;  // −m_y − x_max f_z ≤ 0
+      qp.C(row, fz) = -lb.cop_max.x();
+      qp.u[row++] = 0.0;
+      qp.C(row, my) = 1.0;   //  m_y + x_min f_z ≤ 0
+      qp.C(row, fz) = lb.cop_min.x();
+      qp.u[row++] = 0.0;
+    }
+    if (link.kind == ContactKind::kFace) {
+      const int mx = fx + 3;
+      qp.C(row, mx) = 1.0;   //  m_x − y_max f_z ≤ 0
+      qp.C(row, fz) = -lb.cop_max.y();
+      qp.u[row++] = 0.0;
+      qp.C(row, mx) = -1.0;  // −m_x + y_min f_z ≤ 0
+      qp.C(row, fz) = lb.cop_min.y();
+      qp.u[row++] = 0.0;
+    }
+    slot += link.num_axes;
+  }
+
+  // A different contact set changes what the unknowns mean: start that solve cold.
+  std::uint64_t signature = 1469598103934665603ull ^ static_cast<std::uint64_t>(nc);
+  for (int i = 0; i < num_links; ++i) {
+    const VirtualLink& link = links[i];
+    for (const int value : {link.body, link.object, link.num_axes, link.created_this_tick ? 1 : 0})
+      signature = (signature ^ static_cast<std::uint64_t>(value + 2)) * 1099511628211ull;
+  }
+  if (signature != sc.signature) sc.solver->resetWarmStart();
+  sc.signature = signature;
+  report.info = sc.solver->solve(qp, sc.x);
+  auto extract = [&]() {
+    vdot = sc.x.head(nv_);
+    tau_C = sc.x.segment(nv_, nc);
+    tau_J = b_J;
+    tau_J.noalias() += M * sc.x.head(nv_ + nc);
+    if (!sc.x.allFinite()) report.info.status = QpSolveStatus::kNotFinite;
+    report.violated = check(A, b, H_C, u_C, vdot, tau_C, tau_J);
+    // The check is the criterion: an iterate stopped by the iteration limit that satisfies
+    // every family to tolerance is as good as a converged one.
+    return (report.info.status == QpSolveStatus::kSolved ||
+            report.info.status == QpSolveStatus::kMaxIterations) &&
+           report.violated == kQpFamilyNone;
+  };
+  report.ok = extract();
+  if (!report.ok && options_.enforce_joint_limits) {
+    // Measured on the CMU clips: the joint-limit bounds are what makes the QP infeasible
+    // (a joint at its limit in stance, with torque limits and contacts hard). They are
+    // dropped for the tick — physically, a joint at its stop gets its torque from the stop.
+    report.violated_first = report.violated;
+    report.joint_limits_dropped = true;
+    qp.x_lower.segment(nb_, nj_).setConstant(-kQpInfinity);
+    qp.x_upper.segment(nb_, nj_).setConstant(kQpInfinity);
+    accel_lo_.setConstant(-kQpInfinity);
+    accel_hi_.setConstant(kQpInfinity);
+    const int first_iterations = report.info.iterations;
+    sc.solver->resetWarmStart();
+    report.info = sc.solver->solve(qp, sc.x);
+    report.info.iterations += first_iterations;
+    sc.solver->resetWarmStart();
+    report.ok = extract();
+  }
+  bool ramping = false;
+  for (int i = 0; i < num_links; ++i) ramping = ramping || links[i].releasing;
+  if (!report.ok && ramping) {
+    // Still infeasible while contacts ramp out: the remaining support cannot take the load
+    // that fast (e.g. both feet of a jump). The ramps' upper bounds give way for the tick;
+    // those links then leave when the solver brings their force to the minimum.
+    report.ramps_dropped = true;
+    for (int i = 0; i < num_links; ++i) {
+      LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+      lb.f_max = std::numeric_limits<double>::infinity();
+      qp.x_upper[nv_ + lb.row + 2] = kQpInfinity;
+    }
+    const int earlier_iterations = report.info.iterations;
+    sc.solver->resetWarmStart();
+    report.info = sc.solver->solve(qp, sc.x);
+    report.info.iterations += earlier_iterations;
+    sc.solver->resetWarmStart();
+    report.ok = extract();
+  }
+  if (!report.ok && nc > 0) {
+    // The contacts cannot be held within the torque limits without pulling, sliding or
+    // tipping: physically they break. Solve with every link released (a QP that is always
+    // feasible: τ_J = 0 is a solution); the filter then releases the links.
+    report.contacts_released = true;
+    for (int k = 0; k < nc; ++k) {
+      qp.A.row(nb_ + k).setZero();
+      qp.A(nb_ + k, nv_ + k) = 1.0;
+      qp.b[nb_ + k] = 0.0;
+    }
+    qp.C.bottomRows(qp.nIn() - nj_).setZero();
+    qp.l.tail(qp.nIn() - nj_).setConstant(-kQpInfinity);
+    qp.u.tail(qp.nIn() - nj_).setConstant(kQpInfinity);
+    qp.x_lower.tail(cap).setConstant(-kQpInfinity);
+    qp.x_upper.tail(cap).setConstant(kQpInfinity);
+    num_links_ = 0;
+    const int earlier_iterations = report.info.iterations;
+    sc.solver->resetWarmStart();
+    report.info = sc.solver->solve(qp, sc.x);
+    report.info.iterations += earlier_iterations;
+    sc.solver->resetWarmStart();
+    vdot = sc.x.head(nv_);
+    tau_C.setZero();
+    tau_J = b_J;
+    tau_J.noalias() += A.bottomRows(nj_) * vdot;
+    if (!sc.x.allFinite()) report.info.status = QpSolveStatus::kNotFinite;
+    report.violated = check(A, b, H_C.topRows(0), u_C.head(0), vdot, tau_C.head(0), tau_J);
+    report.ok = (report.info.status == QpSolveStatus::kSolved ||
+                 report.info.status == QpSolveStatus::kMaxIterations) &&
+                report.violated == kQpFamilyNone;
+  }
+  return report;
+}
+
+std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                               const Eigen::Ref<const Eigen::VectorXd>& b,
+                               const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+                               const Eigen::Ref<const Eigen::VectorXd>& u_C,
+                               const Eigen::Ref<const Eigen::VectorXd>& vdot,
+                               const Eigen::Ref<const Eigen::VectorXd>& tau_C,
+                               const Eigen::Ref<const Eigen::VectorXd>& tau_J) const {
+  std::uint32_t violated = kQpFamilyNone;
+  const int nc = static_cast<int>(H_C.rows());
+  if (!vdot.allFinite() || !tau_C.allFinite() || !tau_J.allFinite())
+    return kQpFamilyEquality;
+
+  // Eq. 12: dynamics rows (N, N m) and contact rows (m/s²).
+  auto r = residual_.head(nv_);
+  r = b;
+  r.noalias() += A * vdot;
+  r.noalias() -= H_C.transpose() * tau_C;
+  r.tail(nj_) -= tau_J;
+  if (r.cwiseAbs().maxCoeff() > equality_tolerance_) violated |= kQpFamilyEquality;
+  for (int i = 0; i < nc; ++i)
+    if (std::abs(H_C.row(i).dot(vdot) - u_C[i]) > kAccelTolerance) violated |= kQpFamilyEquality;
+
+  for (int i = 0; i < num_links_; ++i) {
+    const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+    if (lb.row + lb.num_axes > nc) break;
+    const double fx = tau_C[lb.row], fy = tau_C[lb.row + 1], fz = tau_C[lb.row + 2];
+    if (fz < lb.f_min - kForceTolerance || fz > lb.f_max + kForceTolerance)
+      violated |= kQpFamilyUnilateral;
+    if (std::hypot(fx, fy) > lb.mu * std::max(fz, 0.0) + kForceTolerance)
+      violated |= kQpFamilyFriction;
+    if (lb.num_axes >= 5) {
+      const double my = tau_C[lb.row + (lb.num_axes == 6 ? 4 : 3)];
+      if (-my < lb.cop_min.x() * fz - kForceTolerance || -my > lb.cop_max.x() * fz + kForceTolerance)
+        violated |= kQpFamilyCop;
+    }
+    if (lb.num_axes == 6) {
+      const double mx = tau_C[lb.row + 3];
+      if (mx < lb.cop_min.y() * fz - kForceTolerance || mx > lb.cop_max.y() * fz + kForceTolerance)
+        violated |= kQpFamilyCop;
+    }
+  }
+  for (int j = 0; j < nj_; ++j) {
+    if (options_.enforce_torque_limits && std::abs(tau_J[j]) > tau_max_[j] + kForceTolerance)
+      violated |= kQpFamilyTorque;
+    const double a = vdot[nb_ + j];
+    if (a < accel_lo_[j] - kAccelTolerance || a > accel_hi_[j] + kAccelTolerance)
+      violated |= kQpFamilyJointLimit;
+  }
+  return violated;
+}
+
+}  // namespace dynfilter
