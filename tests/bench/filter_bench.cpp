@@ -1,6 +1,6 @@
-// One paper-mode filter tick on the human figure standing with both feet flat (two
-// 6-axis face links), at 1 kHz, following a physically consistent swaying squat; and the
-// tick broken into its parts. Run with repetitions for medians (see BENCHMARKS.md).
+// One filter tick on the human figure standing with both feet flat (two 6-axis face
+// links), at 1 kHz, following a physically consistent swaying squat, in paper mode (arg 0)
+// and QP mode (arg 1); and the paper tick broken into its parts. Run with repetitions for medians (see BENCHMARKS.md).
 #include <benchmark/benchmark.h>
 
 #include <memory>
@@ -8,6 +8,7 @@
 
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/paper_solver.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/reference_motions.hpp"
 #include "support/test_support.hpp"
@@ -32,15 +33,19 @@ Setup& setup() {
 
 void BM_FilterTick(benchmark::State& state) {
   Setup& s = setup();
-  DynamicsFilter filter(*s.model, FilterOptions{});
+  FilterOptions options;
+  options.mode = state.range(0) == 1 ? FilterMode::kQp : FilterMode::kPaper;
+  DynamicsFilter filter(*s.model, options, proxqp::factory());
   filter.reset(s.frames.front());
   std::size_t k = 0;
-  double solve_s = 0.0, contacts = 0.0;
+  double solve_s = 0.0, contacts = 0.0, iterations = 0.0, not_plain = 0.0;
   for (auto _ : state) {
     const FilterOutput& out = filter.step(s.frames[k]);
     benchmark::DoNotOptimize(out.tau_J.data());
     solve_s += out.solve_time_s;
     contacts += out.num_contacts;
+    iterations += out.qp_iterations;
+    not_plain += (out.status & (kStatusQpFallback | kStatusQpRelaxed)) != 0 ? 1.0 : 0.0;
     if (++k == s.frames.size()) {
       state.PauseTiming();
       k = 0;
@@ -48,10 +53,13 @@ void BM_FilterTick(benchmark::State& state) {
       state.ResumeTiming();
     }
   }
-  state.counters["solve_us"] = benchmark::Counter(1e6 * solve_s / state.iterations());
-  state.counters["links"] = benchmark::Counter(contacts / state.iterations());
+  const double n = static_cast<double>(state.iterations());
+  state.counters["solve_us"] = benchmark::Counter(1e6 * solve_s / n);
+  state.counters["links"] = benchmark::Counter(contacts / n);
+  state.counters["qp_iter"] = benchmark::Counter(iterations / n);
+  state.counters["relaxed_or_fallback"] = benchmark::Counter(not_plain / n);
 }
-BENCHMARK(BM_FilterTick)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_FilterTick)->Arg(0)->Arg(1)->ArgName("qp")->Unit(benchmark::kMicrosecond);
 
 // The backend work of a tick: two setState calls (reference for P, then the filter's
 // state), collision, A, b, and J, J̇v for the two sole links and P.

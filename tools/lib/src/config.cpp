@@ -186,7 +186,7 @@ class Parser {
     readMap(e,
             {"accel_weight", "force_weight", "torque_weight", "min_normal_force_n",
              "friction_facets", "cop_margin_m", "liftoff_clearance_m", "release_transition_s",
-             "joint_limit_horizon_s", "enforce_torque_limits", "enforce_joint_limits", "eps_abs",
+             "joint_limit_horizon_s", "joint_limit_max_decel", "enforce_torque_limits", "enforce_joint_limits", "eps_abs",
              "max_iterations", "warm_start"},
             [&](const std::string& k, const Entry& v) {
               if (k == "accel_weight") q.accel_weight = number(v);
@@ -198,6 +198,7 @@ class Parser {
               if (k == "liftoff_clearance_m") q.liftoff_clearance_m = number(v);
               if (k == "release_transition_s") q.release_transition_s = number(v);
               if (k == "joint_limit_horizon_s") q.joint_limit_horizon_s = number(v);
+              if (k == "joint_limit_max_decel") q.joint_limit_max_decel = number(v);
               if (k == "enforce_torque_limits") q.enforce_torque_limits = boolean(v);
               if (k == "enforce_joint_limits") q.enforce_joint_limits = boolean(v);
               if (k == "eps_abs") q.solver.eps_abs = number(v);
