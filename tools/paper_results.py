@@ -109,6 +109,11 @@ class Model:
                       if c in self.parent]
         self.moving = [self.joints[c][0] for c in self.links
                        if c in self.joints and self.joints[c][1] != "fixed"]
+        self.effort = {}  # joint -> |tau| limit (N m), from <limit effort>
+        for j in root.findall("joint"):
+            lim = j.find("limit")
+            if lim is not None and lim.get("effort") is not None:
+                self.effort[j.get("name")] = float(lim.get("effort"))
 
     def fk(self, base_p, base_q, joint_q):
         """World positions of every link origin (n_links x 3). base_q = (w, x, y, z)."""
@@ -257,7 +262,51 @@ def rms(a):
     return float(math.sqrt(np.mean(a * a))) if a.size else float("nan")
 
 
-def metrics_of(filtered_csv, contacts_csv):
+def read_contact_rows(path):
+    """Every column of the contacts CSV (numbers as floats; body and kind as text)."""
+    cols = {}
+    if Path(path).exists():
+        with open(path, newline="") as f:
+            for row in csv.DictReader(f):
+                for k, v in row.items():
+                    cols.setdefault(k, []).append(v if k in ("body", "kind") else float(v))
+    return {k: np.array(v, dtype=object if k in ("body", "kind") else float) for k, v in cols.items()}
+
+
+def limit_metrics(t, contacts_csv, model, mu):
+    """Frames (of the filtered CSV) violating a physical limit: friction cone, centre of
+    pressure outside the contact's support rectangle, joint torque beyond its URDF effort
+    limit; and the frames where the QP mode relaxed or fell back (status bits 512, 256)."""
+    tol = 1e-6
+    m = {}
+    c = read_contact_rows(contacts_csv)
+    if c:
+        f = np.column_stack([c["fx"], c["fy"], c["fz"]])
+        n = np.column_stack([c["nx"], c["ny"], c["nz"]])
+        fn = np.sum(f * n, axis=1)
+        ft = np.linalg.norm(f - fn[:, None] * n, axis=1)
+        m["frames_friction_violation"] = int(len(np.unique(c["time"][ft > mu * np.maximum(fn, 0) + tol])))
+        if "support_x_min" in c:
+            flat = c["kind"] != "point"
+            loaded = c["normal_force_n"] > 1e-9
+            out_x = (c["cop_x"] < c["support_x_min"] - tol) | (c["cop_x"] > c["support_x_max"] + tol)
+            out_y = (c["cop_y"] < c["support_y_min"] - tol) | (c["cop_y"] > c["support_y_max"] + tol)
+            bad = flat & loaded & (out_x | ((c["kind"] == "face") & out_y))
+            m["frames_cop_outside"] = int(len(np.unique(c["time"][bad])))
+    else:
+        m["frames_friction_violation"] = m["frames_cop_outside"] = 0
+    over = np.zeros(len(t["time"]), dtype=bool)
+    for j, limit in model.effort.items():
+        if f"{j}.tau" in t:
+            over |= np.abs(t[f"{j}.tau"]) > limit + tol
+    m["frames_torque_over_limit"] = int(np.count_nonzero(over))
+    status = t["status"].astype(np.int64)
+    m["frames_qp_relaxed"] = int(np.count_nonzero(status & 512))
+    m["frames_qp_fallback"] = int(np.count_nonzero(status & 256))
+    return m
+
+
+def metrics_of(filtered_csv, contacts_csv, model=None, mu=0.8):
     t = read_table(filtered_csv)
     n = len(t["time"])
     joints = [c[4:] for c in t if c.startswith("err.")]
@@ -292,6 +341,8 @@ def metrics_of(filtered_csv, contacts_csv):
     for s in t["status"]:
         flags |= int(s)
     m["status_flags"] = f"0x{flags:x}"
+    if model is not None:
+        m.update(limit_metrics(t, contacts_csv, model, mu))
     return m
 
 
@@ -485,6 +536,25 @@ ROWS = [
     ("status_flags", "status flags seen", "{}"),
 ]
 
+# Paper mode next to the QP mode on the same input.
+MODE_ROWS = [
+    ("joint_rms_rad", "joint tracking RMS, all (rad)", "{:.4f}"),
+    ("task_pos_rms_m", "task point P position RMS (m)", "{:.4f}"),
+    ("frames_pulling_contact", "frames with a pulling contact", "{:d}"),
+    ("frames_friction_violation", "frames with a force outside its friction cone", "{:d}"),
+    ("frames_cop_outside", "frames with a CoP outside its support", "{:d}"),
+    ("frames_torque_over_limit", "frames with a torque beyond its limit", "{:d}"),
+    ("min_normal_force_n", "min contact normal force (N)", "{:.1f}"),
+    ("max_normal_force_n", "max contact normal force (N)", "{:.1f}"),
+    ("peak_tau_legs_nm", "peak abs(torque), legs (N·m)", "{:.1f}"),
+    ("max_base_residual_rel_bw", "max base residual / body weight", "{:.2e}"),
+    ("max_penetration_mm", "max penetration (mm)", "{:.2f}"),
+    ("frames_qp_relaxed", "frames answered by a QP relaxation", "{:d}"),
+    ("frames_qp_fallback", "frames that fell back to the paper solve", "{:d}"),
+    ("mean_tick_us", "mean time per tick (µs)", "{:.1f}"),
+    ("mean_solve_us", "mean solve time per tick (µs)", "{:.1f}"),
+]
+
 
 def fmt(m, key, f):
     v = m.get(key)
@@ -517,6 +587,23 @@ def write_report(out, entries, total_s, bodies_note):
           "frames). The summary `dynfilter-offline` prints (kept in `<name>_offline.log`) is over "
           "every filter tick (4 per frame here), so its maxima and pulling-contact count can "
           "differ; with `--every-tick` the two agree.", ""]
+    with_qp = [n for n in names if "metrics_qp" in entries[n]]
+    if with_qp:
+        L += ["## Paper mode vs QP mode", "",
+              "The same references filtered with `--mode qp` (unilateral contacts with a minimum "
+              "normal force of 1 N, friction pyramid with μ = 0.8, CoP in the support rectangle, "
+              "URDF torque limits, joint limits as acceleration bounds; tools/config/default.yaml). "
+              "Friction is checked against the true cone ‖f_t‖ ≤ μ f_n, torques against the URDF "
+              "effort limits, the CoP against the support rectangle written with each contact.", "",
+              "| metric | " + " | ".join(f"{n} paper | {n} QP" for n in with_qp) + " |",
+              "|---|" + "---:|" * (2 * len(with_qp))]
+        for key, label, f in MODE_ROWS:
+            L.append(f"| {label} | " + " | ".join(
+                f"{fmt(entries[n]['metrics'], key, f)} | {fmt(entries[n]['metrics_qp'], key, f)}"
+                for n in with_qp) + " |")
+        L += ["", "A QP relaxation drops, for that tick only and in this order, the joint-limit "
+              "acceleration bounds, the release ramps' force bounds, then the contacts (they "
+              "break); contacts, friction, CoP and torque limits hold in every relaxation.", ""]
     for n in names:
         e = entries[n]
         L += [f"## {n}: {TITLES[n]}", ""]
@@ -633,7 +720,12 @@ def main():
         run(cmd, out / f"{name}_offline.log", commands)
         if not native_bodies:
             write_bodies_fk(model, reference, filtered, bodies)
-        m = metrics_of(filtered, contacts)
+        m = metrics_of(filtered, contacts, model)
+        # The same input in the QP mode (issue 7): unilateral, friction, CoP, limits.
+        filtered_qp = out / f"{name}_qp_filtered.csv"
+        run([offline, str(reference), "-o", str(filtered_qp), "--no-progress", "--mode", "qp"] + extra,
+            out / f"{name}_qp_offline.log", commands)
+        m_qp = metrics_of(filtered_qp, out / f"{name}_qp_filtered.contacts.csv", model)
         times, ref_b, fil_b = read_bodies(bodies, model.links)
         u = view_axes(reference, model)
         slope = SLOPE_DEG if "--slope-deg" in extra else 0.0
@@ -647,11 +739,12 @@ def main():
             f"Side view along ({u[0]:.2f}, {u[1]:.2f}) in the horizontal plane; filmstrip every "
             f"{step} frames; animation {nframes} frames at {fps} fps (every {astep} frames).")
         secs = time.monotonic() - t_start
-        entries[name] = {"metrics": m, "commands": commands, "note": note, "run_now": True,
+        entries[name] = {"metrics": m, "metrics_qp": m_qp, "commands": commands, "note": note, "run_now": True,
                          "date": datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M:%S %Z"),
                          "seconds": secs}
         print(f"{name}: {m['frames']} frames, joint RMS {m['joint_rms_rad']:.4f} rad, "
-              f"{m['frames_pulling_contact']} pulling frames, {secs:.1f} s")
+              f"{m['frames_pulling_contact']} pulling frames (QP mode: "
+              f"{m_qp['frames_pulling_contact']}), {secs:.1f} s")
     total = time.monotonic() - t_all
     metrics_path.write_text(json.dumps(entries, indent=1))
     write_report(out, entries, total, bodies_note)

@@ -305,6 +305,8 @@ int VirtualLinkSet::finishTick(const IDynamicsModel& model,
       out.wrench_W.head<3>() = R_WA * wrench_A.head<3>();
       out.wrench_W.tail<3>() = R_WA * wrench_A.tail<3>();
       out.normal_force_n = wrench_A[2];
+      out.support_min_A = link.support_min;
+      out.support_max_A = link.support_max;
       out.cop_A.setZero();
       if (link.kind != ContactKind::kPoint && wrench_A[2] > 1e-9)
         out.cop_A = Eigen::Vector2d(-wrench_A[4] / wrench_A[2], wrench_A[3] / wrench_A[2]);

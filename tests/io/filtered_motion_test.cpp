@@ -227,7 +227,9 @@ TEST(FilteredMotionWriter, ContactsFileHasOneRowPerValidContact) {
   const Table t = readTable(contacts);
   EXPECT_EQ(t.header, (std::vector<std::string>{"time", "index", "body", "object", "kind", "px", "py",
                                                 "pz", "nx", "ny", "nz", "fx", "fy", "fz", "mx", "my",
-                                                "mz", "normal_force_n", "cop_x", "cop_y"}));
+                                                "mz", "normal_force_n", "cop_x", "cop_y",
+                                                "support_x_min", "support_x_max",
+                                                "support_y_min", "support_y_max"}));
   ASSERT_EQ(t.rows.size(), 5u);
   const std::pair<std::size_t, int> which[5] = {{0, 0}, {0, 1}, {2, 0}, {2, 1}, {2, 2}};
   const char* kinds[3] = {"face", "edge", "point"};

@@ -217,7 +217,8 @@ std::vector<std::string> FilteredMotionWriter::mainColumns(const ModelInfo& info
 
 std::vector<std::string> FilteredMotionWriter::contactColumns() {
   return {"time", "index", "body", "object", "kind", "px", "py", "pz", "nx", "ny", "nz", "fx",
-          "fy", "fz", "mx", "my", "mz", "normal_force_n", "cop_x", "cop_y"};
+          "fy", "fz", "mx", "my", "mz", "normal_force_n", "cop_x", "cop_y",
+          "support_x_min", "support_x_max", "support_y_min", "support_y_max"};
 }
 
 void FilteredMotionWriter::append(const FilterOutput& out) {
@@ -281,6 +282,10 @@ void FilteredMotionWriter::append(const FilterOutput& out) {
       appendValues(r, c.wrench_W);
       appendValue(r, c.normal_force_n);
       appendValues(r, c.cop_A);
+      appendValue(r, c.support_min_A.x());
+      appendValue(r, c.support_max_A.x());
+      appendValue(r, c.support_min_A.y());
+      appendValue(r, c.support_max_A.y());
       r += '\n';
     }
     s.contacts_file.write(r);

@@ -59,6 +59,10 @@ struct ContactOutput {
   Vector6d wrench_W = Vector6d::Zero();             ///< [force; moment about p_WC], world (N, N m)
   double normal_force_n = 0.0;                      ///< force along n_W (N); < 0 pulls
   Eigen::Vector2d cop_A = Eigen::Vector2d::Zero();  ///< centre of pressure in the anchor xy (m)
+  /// Support rectangle of the link in the anchor xy about its origin (m): where the CoP may
+  /// lie (zero for a point; an edge's along x only).
+  Eigen::Vector2d support_min_A = Eigen::Vector2d::Zero();
+  Eigen::Vector2d support_max_A = Eigen::Vector2d::Zero();
 };
 
 struct FilterOutput {
