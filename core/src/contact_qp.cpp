@@ -1,6 +1,7 @@
 #include "dynfilter/core/contact_qp.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -22,6 +23,8 @@ double finiteOr(double x, double fallback) { return std::isfinite(x) ? x : fallb
 
 }  // namespace
 
+using Clock = std::chrono::steady_clock;
+
 struct ContactQp::SizeClass {
   int capacity = 0;       // τ_C slots
   int link_capacity = 0;  // links whose rows fit
@@ -30,6 +33,13 @@ struct ContactQp::SizeClass {
   Eigen::VectorXd x;
   std::uint64_t signature = 0;  // which links, of which kinds, the last solve had
 };
+
+QpSolveInfo ContactQp::timedSolve(SizeClass& sc, ContactQpReport& report) {
+  const Clock::time_point t0 = Clock::now();
+  const QpSolveInfo info = sc.solver->solve(sc.qp, sc.x);
+  report.solver_time_s += std::chrono::duration<double>(Clock::now() - t0).count();
+  return info;
+}
 
 const char* describeQpFamilies(std::uint32_t families, char* buffer, int size) {
   static constexpr struct {
@@ -258,7 +268,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   }
   if (signature != sc.signature) sc.solver->resetWarmStart();
   sc.signature = signature;
-  report.info = sc.solver->solve(qp, sc.x);
+  report.info = timedSolve(sc, report);
   auto extract = [&]() {
     vdot = sc.x.head(nv_);
     tau_C = sc.x.segment(nv_, nc);
@@ -285,7 +295,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     accel_hi_.setConstant(kQpInfinity);
     const int first_iterations = report.info.iterations;
     sc.solver->resetWarmStart();
-    report.info = sc.solver->solve(qp, sc.x);
+    report.info = timedSolve(sc, report);
     report.info.iterations += first_iterations;
     sc.solver->resetWarmStart();
     report.ok = extract();
@@ -304,7 +314,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     }
     const int earlier_iterations = report.info.iterations;
     sc.solver->resetWarmStart();
-    report.info = sc.solver->solve(qp, sc.x);
+    report.info = timedSolve(sc, report);
     report.info.iterations += earlier_iterations;
     sc.solver->resetWarmStart();
     report.ok = extract();
@@ -327,7 +337,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     num_links_ = 0;
     const int earlier_iterations = report.info.iterations;
     sc.solver->resetWarmStart();
-    report.info = sc.solver->solve(qp, sc.x);
+    report.info = timedSolve(sc, report);
     report.info.iterations += earlier_iterations;
     sc.solver->resetWarmStart();
     vdot = sc.x.head(nv_);

@@ -317,6 +317,7 @@ std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
                          vdot_solved_, tau_C, tau_J_solved_);
   out_.qp_status = static_cast<int>(report.info.status);
   out_.qp_iterations = report.info.iterations;
+  out_.qp_solver_time_s = report.solver_time_s;
   out_.qp_relaxation = (report.joint_limits_dropped ? 1u : 0u) | (report.ramps_dropped ? 2u : 0u) |
                        (report.contacts_released ? 4u : 0u);
   out_.qp_violated = out_.qp_relaxation != 0 ? report.violated_first : report.violated;

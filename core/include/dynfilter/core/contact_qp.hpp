@@ -57,6 +57,7 @@ struct ContactQpReport {
   QpSolveInfo info;
   std::uint32_t violated = kQpFamilyNone;  ///< families violated by the returned x
   int force_capacity = 0;                  ///< size class used
+  double solver_time_s = 0.0;              ///< time inside the QP engine (all attempts)
   bool ok = false;                         ///< solved and every family satisfied
   /// Relaxations, tried in this order while the QP fails (each keeps the previous ones):
   /// 1. joint-limit acceleration bounds dropped (a joint at its stop gets the stop's torque);
@@ -108,6 +109,7 @@ class ContactQp {
 
  private:
   struct SizeClass;
+  QpSolveInfo timedSolve(SizeClass& sc, ContactQpReport& report);
   void buildJointBounds(const Eigen::Ref<const Eigen::VectorXd>& q,
                         const Eigen::Ref<const Eigen::VectorXd>& v);
 

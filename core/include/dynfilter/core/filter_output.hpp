@@ -84,6 +84,7 @@ struct FilterOutput {
   // QP mode (FilterMode::kQp); zero in paper mode.
   int qp_status = 0;                ///< QpSolveStatus of this tick's solve (0 solved)
   int qp_iterations = 0;            ///< solver iterations this tick
+  double qp_solver_time_s = 0.0;    ///< of solve_time_s, the time inside the QP engine
   std::uint32_t qp_violated = 0;    ///< QpConstraintFamily bits the full QP's answer violated
   /// Relaxations used this tick (bits): 1 joint-limit bounds dropped, 2 release ramps
   /// dropped, 4 contacts released.
