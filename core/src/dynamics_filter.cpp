@@ -19,6 +19,8 @@ double secondsSince(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+constexpr double kGravity = 9.81;  // m/s², for the body weight that scales the Eq. 12 guard
+
 // Capacity of the collision candidate list: several points per touching shape.
 constexpr std::size_t kMaxCandidates = 64;
 
@@ -54,6 +56,7 @@ DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& optio
                                               options_.qp, qp_solver);
   }
   const int max_rows = 6 * options_.contacts.max_links;
+  weight_n_ = std::max(info.total_mass, 1e-9) * kGravity;
   q_ = info.neutralConfiguration();
   v_.setZero(nv_);
   last_reference_ = ReferenceFrame(info.nq, nv_);
@@ -264,17 +267,21 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   const auto u_held = u_C_.head(nc_held);
   const auto tau_held = tau_C_.head(nc_held);
   const bool finite = vdot_solved_.allFinite() && tau_J_solved_.allFinite() && tau_held.allFinite();
-  if (!finite) {
-    // Keep the last good output and state; start over from the reference.
-    status |= kStatusNonFinite | kStatusReseeded;
+  const Eq12Residual residual =
+      finite ? eq12Residual(A_, b_, H_held, u_held, nb_, vdot_solved_, tau_held, tau_J_solved_, scratch_)
+             : Eq12Residual{};
+  const bool consistent = residual.base_max_abs <= options_.divergence.max_base_residual_rel * weight_n_;
+  if (!finite || !consistent) {
+    // Not published: the last good output stays; the state starts over from the reference.
+    status |= kStatusReseeded | (finite ? kStatusOk : kStatusNonFinite);
+    out_.reseed_reason = finite ? ReseedReason::kResidual : ReseedReason::kNonFinite;
     ++out_.counters.reseeds;
+    degraded_ticks_ = 0;
     reseed(ref);
     out_.status = status;
     out_.tick_time_s = secondsSince(t0);
     return out_;
   }
-  const Eq12Residual residual =
-      eq12Residual(A_, b_, H_held, u_held, nb_, vdot_solved_, tau_held, tau_J_solved_, scratch_);
   out_.eq12_residual = residual.max_abs;
   out_.base_residual_n = residual.base_max_abs;
   const int links_before = links_.size();
@@ -299,9 +306,23 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   v_.noalias() += options_.dt_s * vdot_solved_;
   integrateConfiguration(nb_ > 0, q_, v_, options_.dt_s, q_);
 
-  if (nb_ > 0 && dq_.head<3>().norm() > options_.max_base_error_m) {
+  // Divergence: errors before the tick, and a solve that stays degraded.
+  degraded_ticks_ = (status & (kStatusRankDeficient | kStatusQpFallback)) != 0 ? degraded_ticks_ + 1 : 0;
+  const DivergenceOptions& guard = options_.divergence;
+  ReseedReason reason = ReseedReason::kNone;
+  if (nb_ > 0 && dq_.head<3>().norm() > guard.max_base_error_m)
+    reason = ReseedReason::kBasePosition;
+  else if (nb_ > 0 && dq_.segment<3>(3).norm() > guard.max_base_rotation_rad)
+    reason = ReseedReason::kBaseRotation;
+  else if (nj_ > 0 && dq_.tail(nj_).cwiseAbs().maxCoeff() > guard.max_joint_error_rad)
+    reason = ReseedReason::kJoint;
+  else if (degraded_ticks_ >= guard.max_degraded_ticks)
+    reason = ReseedReason::kDegradedSolve;
+  out_.reseed_reason = reason;
+  if (reason != ReseedReason::kNone) {
     status |= kStatusReseeded;
     ++out_.counters.reseeds;
+    degraded_ticks_ = 0;
     reseed(ref);
   }
   out_.status = status;

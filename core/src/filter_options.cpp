@@ -1,5 +1,7 @@
 #include "dynfilter/core/filter_options.hpp"
 
+#include "dynfilter/core/filter_output.hpp"
+
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -38,7 +40,13 @@ void FilterOptions::validate() const {
   require(positive(solver.accel_weight), "solver.accel_weight", "must be > 0");
   require(positive(solver.force_weight), "solver.force_weight", "must be > 0");
   require(positive(solver.sr_damping), "solver.sr_damping", "must be > 0");
-  require(positive(max_base_error_m), "max_base_error_m", "must be > 0");
+  require(positive(divergence.max_base_error_m), "divergence.max_base_error_m", "must be > 0");
+  require(positive(divergence.max_base_rotation_rad), "divergence.max_base_rotation_rad",
+          "must be > 0");
+  require(positive(divergence.max_joint_error_rad), "divergence.max_joint_error_rad", "must be > 0");
+  require(positive(divergence.max_base_residual_rel), "divergence.max_base_residual_rel",
+          "must be > 0");
+  require(divergence.max_degraded_ticks >= 1, "divergence.max_degraded_ticks", "must be >= 1");
   require(mode == FilterMode::kPaper || mode == FilterMode::kQp, "mode", "must be paper or qp");
   require(positive(qp.accel_weight), "qp.accel_weight", "must be > 0");
   require(positive(qp.force_weight), "qp.force_weight", "must be > 0");
@@ -66,6 +74,19 @@ bool parseFilterMode(const std::string& text, FilterMode& mode) {
     return true;
   }
   return false;
+}
+
+const char* toString(ReseedReason reason) {
+  switch (reason) {
+    case ReseedReason::kNone: return "";
+    case ReseedReason::kNonFinite: return "non-finite solve";
+    case ReseedReason::kBasePosition: return "base position error";
+    case ReseedReason::kBaseRotation: return "base rotation error";
+    case ReseedReason::kJoint: return "joint error";
+    case ReseedReason::kResidual: return "Eq. 12 residual";
+    case ReseedReason::kDegradedSolve: return "degraded solve";
+  }
+  return "unknown";
 }
 
 const char* toString(FilterMode mode) { return mode == FilterMode::kQp ? "qp" : "paper"; }

@@ -45,7 +45,27 @@ void expectSameFilterOptions(const FilterOptions& a, const FilterOptions& b) {
   EXPECT_EQ(a.solver.accel_weight, b.solver.accel_weight);
   EXPECT_EQ(a.solver.force_weight, b.solver.force_weight);
   EXPECT_EQ(a.solver.sr_damping, b.solver.sr_damping);
-  EXPECT_EQ(a.max_base_error_m, b.max_base_error_m);
+  EXPECT_EQ(a.mode, b.mode);
+  EXPECT_EQ(a.qp.accel_weight, b.qp.accel_weight);
+  EXPECT_EQ(a.qp.force_weight, b.qp.force_weight);
+  EXPECT_EQ(a.qp.torque_weight, b.qp.torque_weight);
+  EXPECT_EQ(a.qp.min_normal_force_n, b.qp.min_normal_force_n);
+  EXPECT_EQ(a.qp.friction_facets, b.qp.friction_facets);
+  EXPECT_EQ(a.qp.cop_margin_m, b.qp.cop_margin_m);
+  EXPECT_EQ(a.qp.liftoff_clearance_m, b.qp.liftoff_clearance_m);
+  EXPECT_EQ(a.qp.release_transition_s, b.qp.release_transition_s);
+  EXPECT_EQ(a.qp.joint_limit_horizon_s, b.qp.joint_limit_horizon_s);
+  EXPECT_EQ(a.qp.joint_limit_max_decel, b.qp.joint_limit_max_decel);
+  EXPECT_EQ(a.qp.enforce_torque_limits, b.qp.enforce_torque_limits);
+  EXPECT_EQ(a.qp.enforce_joint_limits, b.qp.enforce_joint_limits);
+  EXPECT_EQ(a.qp.solver.eps_abs, b.qp.solver.eps_abs);
+  EXPECT_EQ(a.qp.solver.max_iterations, b.qp.solver.max_iterations);
+  EXPECT_EQ(a.qp.solver.warm_start, b.qp.solver.warm_start);
+  EXPECT_EQ(a.divergence.max_base_error_m, b.divergence.max_base_error_m);
+  EXPECT_EQ(a.divergence.max_base_rotation_rad, b.divergence.max_base_rotation_rad);
+  EXPECT_EQ(a.divergence.max_joint_error_rad, b.divergence.max_joint_error_rad);
+  EXPECT_EQ(a.divergence.max_base_residual_rel, b.divergence.max_base_residual_rel);
+  EXPECT_EQ(a.divergence.max_degraded_ticks, b.divergence.max_degraded_ticks);
 }
 
 void expectSameEnvironment(const Environment& a, const Environment& b) {
@@ -93,8 +113,15 @@ TEST(ConfigFile, ShippedDefaultFileListsEveryKeyOnceWithAComment) {
       {"as_constraint_rows", 1}, {"initial_penetration_tolerance_m", 1},
       {"contacts", 1}, {"max_links", 1}, {"stabilization_kp", 1}, {"stabilization_kd", 1},
       {"merge_distance_m", 1}, {"release_force_n", 1}, {"release_ticks", 1},
-      {"reengage_depth_m", 1}, {"plastic_impact", 1}, {"solver", 1}, {"accel_weight", 1},
-      {"force_weight", 1}, {"sr_damping", 1}, {"max_base_error_m", 1}, {"environment", 1},
+      {"reengage_depth_m", 1}, {"plastic_impact", 1}, {"solver", 1}, {"accel_weight", 2},
+      {"force_weight", 2}, {"sr_damping", 1}, {"environment", 1}, {"mode", 1}, {"qp", 1},
+      {"torque_weight", 1}, {"min_normal_force_n", 1}, {"friction_facets", 1},
+      {"cop_margin_m", 1}, {"liftoff_clearance_m", 1}, {"release_transition_s", 1},
+      {"joint_limit_horizon_s", 1}, {"joint_limit_max_decel", 1},
+      {"enforce_torque_limits", 1}, {"enforce_joint_limits", 1}, {"eps_abs", 1},
+      {"max_iterations", 1}, {"warm_start", 1}, {"divergence", 1}, {"max_base_error_m", 1},
+      {"max_base_rotation_rad", 1}, {"max_joint_error_rad", 1}, {"max_base_residual_rel", 1},
+      {"max_degraded_ticks", 1},
       {"ground", 1}, {"slope_deg", 1}, {"heading_deg", 1}, {"height_m", 1}, {"friction", 1},
       {"boxes", 1}};
   EXPECT_EQ(count, expected);
@@ -202,7 +229,8 @@ TEST(ConfigFileErrors, DuplicateKey) {
 TEST(ConfigFileErrors, WrongTypesNameThePathAndPosition) {
   expectConfigError("dt_s: fast\n", 1, 7, "dt_s: expected a finite number, got \"fast\"");
   expectConfigError("dt_s: .nan\n", 1, 7, "dt_s: expected a finite number");
-  expectConfigError("max_base_error_m: [1]\n", 1, 19, "max_base_error_m: expected a finite number, got a sequence");
+  expectConfigError("divergence:\n  max_base_error_m: [1]\n", 2, 21,
+                    "divergence.max_base_error_m: expected a finite number, got a sequence");
   expectConfigError("contacts:\n  max_links: 2.5\n", 2, 14, "contacts.max_links: expected an integer, got \"2.5\"");
   expectConfigError("task:\n  enabled: maybe\n", 2, 12, "task.enabled: expected true or false");
   expectConfigError("task:\n  body: [a, b]\n", 2, 9, "task.body: expected a string, got a sequence");

@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include "dynfilter/core/contact_qp.hpp"
+
 #include "lcm/lcm_test_support.hpp"
 
 namespace dynfilter::messages {
@@ -640,7 +642,24 @@ TEST(FilterStatusMessage, ReportsBitsReasonSolverTimingsAndCounters) {
   std::string all;
   describeStatus(0xffffffffu, all);
   EXPECT_EQ(all, "contact overflow; rank deficient; non-finite solve; reference invalid; re-seeded; "
-                 "impact; torque clamped; stale reference; unknown status bit");
+                 "impact; torque clamped; stale reference; QP fallback; QP relaxed; unknown status bit");
+
+  // QP mode: the relaxation's violated families and the re-seed reason are in the reason;
+  // the solver fields and counters are carried.
+  out.status = kStatusQpRelaxed | kStatusReseeded;
+  out.qp_status = 2;
+  out.qp_iterations = 17;
+  out.qp_violated = kQpFamilyFriction | kQpFamilyTorque;
+  out.reseed_reason = ReseedReason::kJoint;
+  out.counters.qp_solves = 1234;
+  out.counters.qp_fallbacks = 5;
+  fillFilterStatus(out, report, msg);
+  EXPECT_EQ(msg.reason, "re-seeded; QP relaxed (re-seed: joint error) (QP violated: friction,torque)");
+  EXPECT_EQ(msg.qp_status, 2);
+  EXPECT_EQ(msg.qp_iterations, 17);
+  EXPECT_EQ(msg.qp_violated, static_cast<std::int32_t>(kQpFamilyFriction | kQpFamilyTorque));
+  EXPECT_EQ(msg.qp_solves, 1234);
+  EXPECT_EQ(msg.qp_fallbacks, 5);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -583,6 +583,11 @@ void fillFilterStatus(const FilterOutput& output, const StatusReport& report,
     msg.reason += ": ";
     msg.reason += report.detail;
   }
+  if ((output.status & kStatusReseeded) != 0 && output.reseed_reason != ReseedReason::kNone) {
+    msg.reason += " (re-seed: ";
+    msg.reason += toString(output.reseed_reason);
+    msg.reason += ")";
+  }
   if ((output.status & (kStatusQpFallback | kStatusQpRelaxed)) != 0 &&
       output.qp_violated != 0) {
     char families[96];

@@ -182,6 +182,19 @@ class Parser {
             });
   }
 
+  void readDivergence(const Entry& e, DivergenceOptions& d) {
+    readMap(e,
+            {"max_base_error_m", "max_base_rotation_rad", "max_joint_error_rad",
+             "max_base_residual_rel", "max_degraded_ticks"},
+            [&](const std::string& k, const Entry& v) {
+              if (k == "max_base_error_m") d.max_base_error_m = number(v);
+              if (k == "max_base_rotation_rad") d.max_base_rotation_rad = number(v);
+              if (k == "max_joint_error_rad") d.max_joint_error_rad = number(v);
+              if (k == "max_base_residual_rel") d.max_base_residual_rel = number(v);
+              if (k == "max_degraded_ticks") d.max_degraded_ticks = integer(v);
+            });
+  }
+
   void readQp(const Entry& e, QpModeOptions& q) {
     readMap(e,
             {"accel_weight", "force_weight", "torque_weight", "min_normal_force_n",
@@ -282,7 +295,7 @@ class Parser {
       fail(top.mark, "", "expected a map of options, got " + describe(root));
     FilterOptions& f = config.filter;
     readMap(top,
-            {"dt_s", "mode", "feedback", "task", "contacts", "solver", "qp", "max_base_error_m",
+            {"dt_s", "mode", "feedback", "task", "contacts", "solver", "qp", "divergence",
              "environment"},
             [&](const std::string& k, const Entry& v) {
               if (k == "dt_s") f.dt_s = number(v);
@@ -293,7 +306,7 @@ class Parser {
               if (k == "task") readTask(v, f.task);
               if (k == "contacts") readContacts(v, f.contacts);
               if (k == "solver") readSolver(v, f.solver);
-              if (k == "max_base_error_m") f.max_base_error_m = number(v);
+              if (k == "divergence") readDivergence(v, f.divergence);
               if (k == "environment") readEnvironment(v, config.environment);
             });
     try {

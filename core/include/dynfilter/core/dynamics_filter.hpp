@@ -73,6 +73,8 @@ class DynamicsFilter {
   IDynamicsModel& model_;
   FilterOptions options_;
   int nv_, nb_, nj_, task_body_ = -1;
+  double weight_n_ = 0.0;      // body weight (N), scales the Eq. 12 divergence guard
+  int degraded_ticks_ = 0;     // consecutive ticks with a degraded solve
   Eigen::VectorXd q_, v_;
   ReferenceFrame last_reference_;
   bool has_reference_ = false;

@@ -103,6 +103,21 @@ struct QpModeOptions {
   QpSolverSettings solver;
 };
 
+/// Divergence guard: when the filter's state drifts too far from the reference or its solve
+/// degrades, the state re-seeds from the reference (kStatusReseeded, FilterOutput::
+/// reseed_reason). Errors are measured before the tick, qʳᵉᶠ ⊖ q.
+struct DivergenceOptions {
+  double max_base_error_m = 0.5;        ///< base position error (m)
+  double max_base_rotation_rad = 1.0;   ///< base orientation error, angle of the SO(3) log (rad)
+  double max_joint_error_rad = 2.0;     ///< any joint's error (rad, or m for a slider)
+  /// Eq. 12 base rows beyond this fraction of the body weight: the tick's answer is not
+  /// published (the last good output stays) and the state re-seeds.
+  double max_base_residual_rel = 1e-6;
+  /// This many consecutive ticks with a degraded solve (rank-deficient rows regularised,
+  /// or a QP fallback) re-seed.
+  int max_degraded_ticks = 200;
+};
+
 struct FilterOptions {
   double dt_s = 1e-3;  ///< control tick (s)
   FilterMode mode = FilterMode::kPaper;
@@ -111,8 +126,7 @@ struct FilterOptions {
   TaskPointOptions task;
   ContactOptions contacts;
   PaperSolverOptions solver;
-  /// Divergence guard: a base position error beyond this (m) re-seeds from the reference.
-  double max_base_error_m = 0.5;
+  DivergenceOptions divergence;
 
   /// Throws std::invalid_argument naming the option when a value is out of range.
   void validate() const;

@@ -33,6 +33,19 @@ enum FilterStatusBits : std::uint32_t {
   kStatusQpRelaxed = 1u << 9,
 };
 
+/// Why the state was re-seeded from the reference (with kStatusReseeded).
+enum class ReseedReason : int {
+  kNone = 0,
+  kNonFinite = 1,      ///< the solve produced NaN/Inf
+  kBasePosition = 2,   ///< DivergenceOptions::max_base_error_m
+  kBaseRotation = 3,   ///< DivergenceOptions::max_base_rotation_rad
+  kJoint = 4,          ///< DivergenceOptions::max_joint_error_rad
+  kResidual = 5,       ///< DivergenceOptions::max_base_residual_rel
+  kDegradedSolve = 6,  ///< DivergenceOptions::max_degraded_ticks
+};
+/// "non-finite solve", "base position error", ...; a static string ("" for kNone).
+const char* toString(ReseedReason reason);
+
 /// Running counters since the filter was made (every tick reports them).
 struct FilterCounters {
   std::uint64_t ticks = 0;
@@ -81,6 +94,7 @@ struct FilterOutput {
   double solve_time_s = 0.0;     ///< Eq. 21–23 only
   double tick_time_s = 0.0;      ///< the whole tick
   double max_penetration_m = 0.0;
+  ReseedReason reseed_reason = ReseedReason::kNone;  ///< this tick's, with kStatusReseeded
   // QP mode (FilterMode::kQp); zero in paper mode.
   int qp_status = 0;                ///< QpSolveStatus of this tick's solve (0 solved)
   int qp_iterations = 0;            ///< solver iterations this tick

@@ -12,7 +12,7 @@
 /// contacts: {max_links, stabilization_kp, stabilization_kd, merge_distance_m,
 ///            release_force_n, release_ticks, reengage_depth_m, plastic_impact}
 /// solver: {accel_weight, force_weight, sr_damping}
-/// max_base_error_m: 0.5
+/// divergence: {max_base_error_m: 0.5}
 /// environment:
 ///   ground: {slope_deg, heading_deg, height_m, friction}   # or: ground: none
 ///   boxes: [{name, size_m: [x, y, z], position_m: [x, y, z], rpy_deg: [r, p, y], friction}]
