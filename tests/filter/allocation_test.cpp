@@ -1,16 +1,22 @@
 // No heap allocation in the filter's per-tick path. This executable replaces the global
-// operator new to count allocations while a flag is set. The model is wrapped in a
-// forwarding decorator that pauses counting inside backend calls, so the count is the
-// core's own; what the backend (DART) allocates inside its calls is counted separately
-// and reported as a test property.
+// operator new and interposes glibc's malloc family, counting allocations while a flag is
+// set: operator new (std::vector, std::string, ...) and direct malloc calls separately —
+// Eigen's dynamic matrices and their temporaries allocate with std::malloc, which counting
+// operator new alone never saw. The model is wrapped in a forwarding decorator that pauses
+// counting inside backend calls, so the count is the core's own; what the backend (DART)
+// allocates inside its calls is counted separately and reported as a test property.
 #include <atomic>
+#include <cerrno>
 #include <cstdlib>
 #include <new>
+#include <string>
 
+#include <Eigen/Core>
 #include <gtest/gtest.h>
 
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/dynamics_simulator.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/reference_motions.hpp"
 #include "support/test_support.hpp"
@@ -18,18 +24,66 @@
 namespace {
 std::atomic<bool> g_counting{false};
 std::atomic<bool> g_in_backend{false};
-std::atomic<long> g_core_allocations{0};
+std::atomic<long> g_core_new{0};      // operator new outside backend calls
+std::atomic<long> g_core_malloc{0};   // malloc family called directly (Eigen) outside them
 std::atomic<long> g_backend_allocations{0};
+
+void countAllocation(std::atomic<long>& core) {
+  if (g_counting.load(std::memory_order_relaxed))
+    (g_in_backend.load(std::memory_order_relaxed) ? g_backend_allocations : core)++;
+}
+void resetCounts() {
+  g_core_new = 0;
+  g_core_malloc = 0;
+  g_backend_allocations = 0;
+}
 }  // namespace
 
+// glibc's own entry points, exported for exactly this kind of interposition.
+extern "C" {
+void* __libc_malloc(std::size_t size);
+void* __libc_calloc(std::size_t n, std::size_t size);
+void* __libc_realloc(void* p, std::size_t size);
+void* __libc_memalign(std::size_t alignment, std::size_t size);
+void __libc_free(void* p);
+
+void* malloc(std::size_t size) {
+  countAllocation(g_core_malloc);
+  return __libc_malloc(size);
+}
+void* calloc(std::size_t n, std::size_t size) {
+  countAllocation(g_core_malloc);
+  return __libc_calloc(n, size);
+}
+void* realloc(void* p, std::size_t size) {
+  countAllocation(g_core_malloc);
+  return __libc_realloc(p, size);
+}
+void* aligned_alloc(std::size_t alignment, std::size_t size) {
+  countAllocation(g_core_malloc);
+  return __libc_memalign(alignment, size);
+}
+void* memalign(std::size_t alignment, std::size_t size) {
+  countAllocation(g_core_malloc);
+  return __libc_memalign(alignment, size);
+}
+int posix_memalign(void** out, std::size_t alignment, std::size_t size) {
+  if (alignment < sizeof(void*) || (alignment & (alignment - 1)) != 0) return EINVAL;
+  countAllocation(g_core_malloc);
+  void* p = __libc_memalign(alignment, size);
+  if (p == nullptr) return ENOMEM;
+  *out = p;
+  return 0;
+}
+}  // extern "C"
+
 void* operator new(std::size_t size) {
-  if (g_counting.load(std::memory_order_relaxed))
-    (g_in_backend.load(std::memory_order_relaxed) ? g_backend_allocations : g_core_allocations)++;
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  countAllocation(g_core_new);
+  if (void* p = __libc_malloc(size == 0 ? 1 : size)) return p;
   throw std::bad_alloc();
 }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p) noexcept { __libc_free(p); }
+void operator delete(void* p, std::size_t) noexcept { __libc_free(p); }
 
 namespace dynfilter {
 namespace {
@@ -99,6 +153,34 @@ class MeasuredModel final : public IDynamicsModel {
   IDynamicsModel& inner_;
 };
 
+// The core's allocations over @p ticks: none through operator new (hard), and none through
+// malloc. Eigen heap temporaries in the core (malloc) are a known product bug, reported with
+// their sources: while they remain, the test is skipped with their count, not passed.
+void expectNoCoreAllocations(long ticks, const char* eigen_sources) {
+  const long by_new = g_core_new.load(), by_malloc = g_core_malloc.load();
+  ::testing::Test::RecordProperty("core_new_per_tick",
+                                  std::to_string(static_cast<double>(by_new) / ticks));
+  ::testing::Test::RecordProperty("core_malloc_per_tick",
+                                  std::to_string(static_cast<double>(by_malloc) / ticks));
+  EXPECT_EQ(by_new, 0) << "operator new in the core's per-tick path over " << ticks << " ticks";
+  if (by_malloc > 0)
+    GTEST_SKIP() << "PRODUCT BUG: " << by_malloc << " heap allocations by Eigen temporaries over "
+                 << ticks << " ticks (" << static_cast<double>(by_malloc) / ticks
+                 << " per tick) from " << eigen_sources;
+}
+
+// Measured sources (backtraces of the counted mallocs, 2026-11-23):
+constexpr const char* kAssembleSource =
+    "core/src/virtual_links.cpp:248/250 (H_C.row(row) = R.row(axis) * J_.topRows<3>() without "
+    ".noalias(): one temporary per constrained row per assemble())";
+constexpr const char* kPaperSolverSource =
+    "core/src/paper_solver.cpp:100,111,113,139,149,151 (noalias() products divided by a scalar, "
+    "e.g. Cv.transpose() * lambda / wa: one temporary each, 6 per solve)";
+constexpr const char* kProxQpSource =
+    "solvers/proxqp/src/proxqp_solver.cpp:41/48/58 (column-major H, A, C bound to proxsuite's "
+    "row-major MatRef: 3 copies per solve) and proxsuite dense/helpers.hpp update() "
+    "(g/b/u/l .eval(): 4 per solve)";
+
 TEST(Allocation, FilterStepAllocatesNothingInTheCore) {
   auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const auto frames = test::simulateStandingSway(*dart, 0.4, 1e-3);
@@ -113,26 +195,63 @@ TEST(Allocation, FilterStepAllocatesNothingInTheCore) {
   for (auto& f : lifted) f.q[2] += 0.03;
   filter.reset(lifted.front());
   std::uint32_t seen = 0;
-  g_core_allocations = 0;
-  g_backend_allocations = 0;
+  resetCounts();
   g_counting = true;
   for (const ReferenceFrame& f : lifted) seen |= filter.step(f).status;
   g_counting = false;
   EXPECT_TRUE(seen & kStatusImpact) << "the impact branch must have run";
   EXPECT_GT(filter.output().num_contacts, 0);
-  EXPECT_EQ(g_core_allocations.load(), 0) << "heap allocations in the core's per-tick path";
   RecordProperty("backend_allocations_per_tick",
                  std::to_string(static_cast<double>(g_backend_allocations) / lifted.size()));
+  expectNoCoreAllocations(static_cast<long>(lifted.size()),
+                          (std::string(kAssembleSource) + "; " + kPaperSolverSource).c_str());
+}
+
+TEST(Allocation, QpModeSteadyStateTickAllocatesNothingInTheCore) {
+  // The QP mode on the standing figure (two face links, the 12-slot size class). ProxQP is
+  // not a backend: what it allocates inside solve() counts as the core's.
+  auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const auto frames = test::simulateStandingSway(*dart, 0.4, 1e-3);
+  MeasuredModel model(*dart);
+  FilterOptions options;
+  options.mode = FilterMode::kQp;
+  DynamicsFilter filter(model, options, proxqp::factory());
+  filter.reset(frames.front());
+  for (int k = 0; k < 50; ++k) filter.step(frames[static_cast<std::size_t>(k)]);  // warm up
+  std::uint32_t seen = 0;
+  std::uint64_t iterations_before = filter.output().counters.qp_iterations;
+  resetCounts();
+  g_counting = true;
+  for (std::size_t k = 50; k < frames.size(); ++k) seen |= filter.step(frames[k]).status;
+  g_counting = false;
+  const long ticks = static_cast<long>(frames.size()) - 50;
+  EXPECT_EQ(filter.output().num_contacts, 2);
+  EXPECT_EQ(seen & (kStatusQpFallback | kStatusQpRelaxed), 0u) << "the plain QP path ran";
+  EXPECT_GT(filter.output().counters.qp_iterations, iterations_before) << "the solver iterated";
+  expectNoCoreAllocations(ticks, (std::string(kAssembleSource) + "; " + kProxQpSource).c_str());
 }
 
 TEST(Allocation, CountingWorks) {
   // The counter must see an allocation, or the test above proves nothing.
-  g_core_allocations = 0;
+  resetCounts();
   g_counting = true;
   auto* p = new std::vector<double>(100);
   g_counting = false;
   delete p;
-  EXPECT_GE(g_core_allocations.load(), 1);
+  EXPECT_GE(g_core_new.load(), 1);
+  EXPECT_EQ(g_core_malloc.load(), 0);
+  // Eigen's dynamic matrices allocate through std::malloc, not operator new.
+  resetCounts();
+  g_counting = true;
+  {
+    Eigen::MatrixXd m(7, 9);
+    m.setOnes();
+    const Eigen::MatrixXd product = m.transpose() * m;  // a temporary too
+    EXPECT_EQ(product(0, 0), 7.0);
+  }
+  g_counting = false;
+  EXPECT_GE(g_core_malloc.load(), 2);
+  EXPECT_EQ(g_core_new.load(), 0);
 }
 
 TEST(Allocation, SimulatorStepAllocatesNothingInTheCore) {
@@ -143,11 +262,11 @@ TEST(Allocation, SimulatorStepAllocatesNothingInTheCore) {
   q[2] = test::humanFigureStandingHeight() + 0.02;
   sim.reset(q, Eigen::VectorXd::Zero(dart->nv()));
   const Eigen::VectorXd tau = Eigen::VectorXd::Zero(dart->nj());
-  g_core_allocations = 0;
+  resetCounts();
   g_counting = true;
   for (int k = 0; k < 200; ++k) sim.step(tau);
   g_counting = false;
-  EXPECT_EQ(g_core_allocations.load(), 0);
+  expectNoCoreAllocations(200, kAssembleSource);
 }
 
 }  // namespace
@@ -169,7 +288,7 @@ TEST(Allocation, RealtimeTickAndReferenceIntakeAllocateNothing) {
     rt.addReference(frames[static_cast<std::size_t>(k)], 0.001 * k);
     rt.tick(0.001 * k);
   }
-  g_core_allocations = 0;
+  resetCounts();
   g_counting = true;
   for (int k = 50; k < 450; ++k) {
     const ReferenceFrame& f = frames[static_cast<std::size_t>(k)];
@@ -178,8 +297,8 @@ TEST(Allocation, RealtimeTickAndReferenceIntakeAllocateNothing) {
     rt.tick(0.001 * k);
   }
   g_counting = false;
-  EXPECT_EQ(g_core_allocations.load(), 0);
   EXPECT_TRUE(rt.command().allFinite());
+  expectNoCoreAllocations(400, (std::string(kAssembleSource) + "; " + kPaperSolverSource).c_str());
 }
 
 }  // namespace

@@ -278,5 +278,73 @@ TEST(ConfigFileErrors, LoadReportsTheFileAndMissingFiles) {
                    "cannot open file: No such file or directory");
 }
 
+// ---------------------------------------------------------------------------------------
+// The QP mode's keys
+
+TEST(ConfigFile, ModeQpAndItsSectionParse) {
+  const FilterConfig config = parseFilterConfig(
+      "mode: qp\n"
+      "qp:\n"
+      "  accel_weight: 2.5\n"
+      "  force_weight: 1e-5\n"
+      "  torque_weight: 0\n"
+      "  min_normal_force_n: 5\n"
+      "  friction_facets: 8\n"
+      "  cop_margin_m: 0.01\n"
+      "  liftoff_clearance_m: 0.03\n"
+      "  release_transition_s: 0.1\n"
+      "  joint_limit_horizon_s: 0.02\n"
+      "  joint_limit_max_decel: 80\n"
+      "  enforce_torque_limits: false\n"
+      "  enforce_joint_limits: false\n"
+      "  eps_abs: 1e-9\n"
+      "  max_iterations: 50\n"
+      "  warm_start: false\n",
+      "qp.yaml");
+  FilterOptions expected;
+  expected.mode = FilterMode::kQp;
+  expected.qp.accel_weight = 2.5;
+  expected.qp.force_weight = 1e-5;
+  expected.qp.torque_weight = 0.0;
+  expected.qp.min_normal_force_n = 5.0;
+  expected.qp.friction_facets = 8;
+  expected.qp.cop_margin_m = 0.01;
+  expected.qp.liftoff_clearance_m = 0.03;
+  expected.qp.release_transition_s = 0.1;
+  expected.qp.joint_limit_horizon_s = 0.02;
+  expected.qp.joint_limit_max_decel = 80.0;
+  expected.qp.enforce_torque_limits = false;
+  expected.qp.enforce_joint_limits = false;
+  expected.qp.solver.eps_abs = 1e-9;
+  expected.qp.solver.max_iterations = 50;
+  expected.qp.solver.warm_start = false;
+  expectSameFilterOptions(config.filter, expected);
+  // mode alone switches the solver and keeps every qp default; paper is the default.
+  const FilterConfig qp_only = parseFilterConfig("mode: qp\n", "mode.yaml");
+  FilterOptions qp_defaults;
+  qp_defaults.mode = FilterMode::kQp;
+  expectSameFilterOptions(qp_only.filter, qp_defaults);
+  EXPECT_EQ(parseFilterConfig("mode: paper\n", "paper.yaml").filter.mode, FilterMode::kPaper);
+  EXPECT_EQ(parseFilterConfig("", "empty.yaml").filter.mode, FilterMode::kPaper);
+}
+
+TEST(ConfigFileErrors, UnknownModeNamesTheKeyAndLine) {
+  expectConfigError("dt_s: 0.001\nmode: banana\n", 2, 7, "mode: expected paper or qp, got \"banana\"");
+  expectConfigError("mode: QP\n", 1, 7, "mode: expected paper or qp, got \"QP\"");  // case matters
+  expectConfigError("mode: [qp]\n", 1, 7, "mode:");
+}
+
+TEST(ConfigFileErrors, QpOptionsOutOfRangeNameTheOption) {
+  // Two facets cannot make a friction pyramid: validate's rule, located at the key.
+  expectConfigError("mode: qp\nqp:\n  friction_facets: 2\n", 3, 3,
+                    "qp.friction_facets: filter option qp.friction_facets must be in [3, 16]");
+  expectConfigError("qp:\n  friction_facets: 17\n", 2, 3, "qp.friction_facets");
+  expectConfigError("qp:\n  friction_facets: 4.5\n", 2, 20,
+                    "qp.friction_facets: expected an integer, got \"4.5\"");
+  expectConfigError("qp:\n  min_normal_force_n: -1\n", 2, 3,
+                    "qp.min_normal_force_n: filter option qp.min_normal_force_n must be >= 0");
+  expectConfigError("qp:\n  frction_facets: 4\n", 2, 3, "qp.frction_facets: unknown key");
+}
+
 }  // namespace
 }  // namespace dynfilter::io

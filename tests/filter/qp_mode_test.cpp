@@ -1,0 +1,652 @@
+// The filter's QP mode (FilterMode::kQp, contact_qp.hpp) on the human figure with ProxQP:
+// the contact forces it publishes are physical (push, inside the friction cone, CoP on the
+// sole), the torques within their limits and Eq. 12 exact; failures of the QP never pass
+// silently; the release ramp bounds the rate at which a lifted foot's load goes away.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "dynfilter/core/contact_qp.hpp"
+#include "dynfilter/core/dynamics_filter.hpp"
+#include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/io/retarget.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
+#include "support/reference_motions.hpp"
+#include "support/test_support.hpp"
+
+namespace dynfilter {
+namespace {
+
+constexpr double kGravity = 9.81;
+
+std::string sci(double x) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.3g", x);
+  return buffer;
+}
+
+std::unique_ptr<IDynamicsModel> humanFigure() {
+  return test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+}
+
+FilterOptions qpOptions(double dt = 1e-3) {
+  FilterOptions options;
+  options.dt_s = dt;
+  options.mode = FilterMode::kQp;
+  return options;
+}
+
+// A posture with knees slightly bent (away from the knee's stop at 0), its base at the
+// height where the soles touch the ground.
+ReferenceFrame standingReference(IDynamicsModel& model) {
+  const ModelInfo& info = model.info();
+  ReferenceFrame ref(info.nq, info.nv);
+  ref.q = info.neutralConfiguration();
+  for (const char* side : {"l_", "r_"}) {
+    const std::string p = side;
+    ref.q[info.configurationIndex(info.findJoint(p + "hip_pitch"))] = -0.1;
+    ref.q[info.configurationIndex(info.findJoint(p + "knee"))] = 0.2;
+    ref.q[info.configurationIndex(info.findJoint(p + "ankle_pitch"))] = -0.1;
+  }
+  ref.q[2] = standingBaseHeight(model, ref.q);
+  return ref;
+}
+
+// The link of @p c in the filter's link set after the tick (null when it was released).
+const VirtualLink* linkOf(const DynamicsFilter& filter, const ContactOutput& c) {
+  const VirtualLinkSet& links = filter.links();
+  for (int i = 0; i < links.size(); ++i)
+    if (links[i].body == c.body && links[i].object == c.object) return &links[i];
+  return nullptr;
+}
+
+// Physical contact and limits, checked on one QP-mode tick's output.
+struct PhysicsCheck {
+  double min_normal_n = 1e300;       // smallest normal force seen
+  double max_friction_excess = -1e300;  // max ‖f_t‖ − μ f_z (N)
+  double max_cop_excess_m = -1e300;  // max distance of a CoP outside its rectangle (m)
+  double max_torque_excess = -1e300;  // max |τ_J| − τ_max
+  double max_base_residual_n = 0.0;
+  int contact_ticks = 0;             // ticks with at least one contact
+  int cop_checked = 0;               // face/edge contacts whose CoP was checked
+
+  void add(const DynamicsFilter& filter, const FilterOutput& out, const ModelInfo& info,
+           double mu) {
+    for (int i = 0; i < out.num_contacts; ++i) {
+      const ContactOutput& c = out.contacts[static_cast<std::size_t>(i)];
+      const Eigen::Vector3d f = c.wrench_W.head<3>();
+      const double fz = c.normal_force_n;
+      EXPECT_NEAR(fz, f.dot(c.n_W), 1e-9);
+      const double ft = (f - f.dot(c.n_W) * c.n_W).norm();
+      min_normal_n = std::min(min_normal_n, fz);
+      max_friction_excess = std::max(max_friction_excess, ft - mu * fz);
+      if (c.kind == ContactKind::kPoint) continue;
+      const VirtualLink* link = linkOf(filter, c);
+      if (link == nullptr) continue;  // released by this tick; its bounds are gone
+      for (int d = 0; d < (c.kind == ContactKind::kFace ? 2 : 1); ++d) {
+        max_cop_excess_m = std::max(max_cop_excess_m, link->support_min[d] - c.cop_A[d]);
+        max_cop_excess_m = std::max(max_cop_excess_m, c.cop_A[d] - link->support_max[d]);
+      }
+      ++cop_checked;
+    }
+    if (out.num_contacts > 0) ++contact_ticks;
+    for (int j = 0; j < info.nj; ++j)
+      max_torque_excess = std::max(max_torque_excess, std::abs(out.tau_J[j]) - info.tau_max[j]);
+    max_base_residual_n = std::max(max_base_residual_n, out.base_residual_n);
+  }
+};
+
+// ---------------------------------------------------------------------------------------
+// Options
+
+TEST(QpModeOptions, QpModeWithoutASolverFactoryThrows) {
+  auto model = humanFigure();
+  try {
+    DynamicsFilter filter(*model, qpOptions());
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("QP solver"), std::string::npos) << e.what();
+  }
+  // The same options with a factory construct, and paper mode needs none.
+  EXPECT_NO_THROW(DynamicsFilter(*model, qpOptions(), proxqp::factory()));
+  EXPECT_NO_THROW(DynamicsFilter(*model, FilterOptions{}));
+}
+
+TEST(QpModeOptions, TaskConstraintRowsAreRejectedInQpMode) {
+  auto model = humanFigure();
+  FilterOptions options = qpOptions();
+  options.task.as_constraint_rows = true;
+  try {
+    DynamicsFilter filter(*model, options, proxqp::factory());
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("as_constraint_rows"), std::string::npos) << e.what();
+  }
+  options.task.enabled = false;  // no task point: the rows do not exist, nothing to reject
+  EXPECT_NO_THROW(DynamicsFilter(*model, options, proxqp::factory()));
+}
+
+TEST(QpModeOptions, FactoryThatReturnsNoSolverIsRejected) {
+  auto model = humanFigure();
+  const QpSolverFactory null_factory = [](int, int, int, const QpSolverSettings&) {
+    return std::unique_ptr<IQpSolver>();
+  };
+  EXPECT_THROW(DynamicsFilter(*model, qpOptions(), null_factory), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------------------
+// Standing still: the two soles carry exactly the weight
+
+TEST(QpModeStanding, StaticStanceCarriesTheWeightWithTheCopOnTheSoles) {
+  auto model = humanFigure();
+  const ModelInfo& info = model->info();
+  const ReferenceFrame ref = standingReference(*model);
+  const double weight = info.total_mass * kGravity;
+  const double mu = model->environment().ground.friction;
+  DynamicsFilter filter(*model, qpOptions(), proxqp::factory());
+  filter.reset(ref);
+  PhysicsCheck check;
+  const int ticks = 1500;
+  std::uint32_t status_union = 0;
+  double weight_error = 0.0;
+  for (int k = 0; k < ticks; ++k) {
+    ReferenceFrame r = ref;
+    r.time_s = k * 1e-3;
+    const FilterOutput& out = filter.step(r);
+    status_union |= out.status;
+    check.add(filter, out, info, mu);
+    if (k == ticks - 1) {
+      ASSERT_EQ(out.num_contacts, 2);
+      double sum = 0.0;
+      for (int i = 0; i < 2; ++i) {
+        const ContactOutput& c = out.contacts[static_cast<std::size_t>(i)];
+        EXPECT_EQ(c.kind, ContactKind::kFace) << "body " << c.body;
+        sum += c.normal_force_n;
+        // Standing symmetrically: each sole carries a share, neither at the minimum.
+        EXPECT_GT(c.normal_force_n, 0.25 * weight);
+      }
+      weight_error = std::abs(sum - weight) / weight;
+      // At rest: v and v̇ vanish, so the base rows of Eq. 12 say Σ f_z = m g.
+      EXPECT_LT(out.v.cwiseAbs().maxCoeff(), 1e-5);
+      EXPECT_LT(weight_error, 1e-6) << "sum " << sum << " N, weight " << weight << " N";
+      const std::vector<int> bodies{out.contacts[0].body, out.contacts[1].body};
+      EXPECT_TRUE(std::count(bodies.begin(), bodies.end(), info.findBody("l_foot")) == 1 &&
+                  std::count(bodies.begin(), bodies.end(), info.findBody("r_foot")) == 1);
+    }
+  }
+  RecordProperty("weight_sum_relative_error", sci(weight_error));
+  RecordProperty("max_base_residual_n", sci(check.max_base_residual_n));
+  EXPECT_EQ(status_union & (kStatusQpFallback | kStatusQpRelaxed | kStatusNonFinite), 0u)
+      << "status union " << status_union;
+  EXPECT_GE(check.min_normal_n, qpOptions().qp.min_normal_force_n - 1e-6);
+  EXPECT_LE(check.max_friction_excess, 1e-6);
+  EXPECT_GT(check.cop_checked, ticks);  // two soles on (almost) every tick
+  EXPECT_LE(check.max_cop_excess_m, 1e-6);
+  EXPECT_LE(check.max_torque_excess, 1e-6);
+  EXPECT_LE(check.max_base_residual_n, 1e-8 * weight);
+  const FilterCounters& counters = filter.output().counters;
+  EXPECT_EQ(counters.ticks, static_cast<std::uint64_t>(ticks));
+  EXPECT_EQ(counters.ticks, counters.qp_solves + counters.qp_fallbacks);
+  EXPECT_EQ(counters.qp_fallbacks, 0u);
+  EXPECT_EQ(counters.qp_relaxed, 0u);
+  EXPECT_EQ(counters.links_released, 0u);
+}
+
+TEST(QpModeStanding, SwayingSquatKeepsContactsPhysical) {
+  // The simulated (Eq. 14) swaying squat: consistent for the figure, so the QP has no
+  // reason to relax or fall back, and it must keep every inequality on every tick.
+  auto model = humanFigure();
+  const ModelInfo& info = model->info();
+  const auto frames = test::simulateStandingSway(*model, 1.0, 1e-3);
+  const double weight = info.total_mass * kGravity;
+  DynamicsFilter filter(*model, qpOptions(), proxqp::factory());
+  filter.reset(frames.front());
+  PhysicsCheck check;
+  std::uint32_t status_union = 0;
+  for (const ReferenceFrame& f : frames) {
+    const FilterOutput& out = filter.step(f);
+    status_union |= out.status;
+    check.add(filter, out, info, model->environment().ground.friction);
+  }
+  EXPECT_EQ(status_union & (kStatusQpFallback | kStatusQpRelaxed | kStatusNonFinite), 0u);
+  EXPECT_EQ(check.contact_ticks, static_cast<int>(frames.size()));
+  EXPECT_GE(check.min_normal_n, 1.0 - 1e-6);
+  EXPECT_LE(check.max_friction_excess, 1e-6);
+  EXPECT_LE(check.max_cop_excess_m, 1e-6);
+  EXPECT_LE(check.max_torque_excess, 1e-6);
+  EXPECT_LE(check.max_base_residual_n, 1e-8 * weight);
+  const FilterCounters& counters = filter.output().counters;
+  EXPECT_EQ(counters.ticks, counters.qp_solves + counters.qp_fallbacks);
+}
+
+// ---------------------------------------------------------------------------------------
+// A retargeted CMU clip: paper mode pulls on the ground, QP mode never does
+
+struct ClipRun {
+  PhysicsCheck check;
+  std::uint32_t status_union = 0;
+  double min_normal_n = 1e300;
+  int pulling_ticks = 0;
+  FilterCounters counters;
+  int ticks = 0;
+};
+
+ClipRun filterClip(IDynamicsModel& model, const std::vector<ReferenceFrame>& frames, int substeps,
+                   const FilterOptions& options) {
+  DynamicsFilter filter(model, options, proxqp::factory());
+  filter.reset(frames.front());
+  ReferenceFrame ref(model.nq(), model.nv());
+  const double dt = options.dt_s;
+  const double mu = model.environment().ground.friction;
+  ClipRun run;
+  for (std::size_t segment = 0; segment + 1 < frames.size(); ++segment) {
+    for (int s = 0; s < substeps; ++s) {
+      const double t = frames[segment].time_s + s * dt;
+      interpolateReference(true, frames[segment], frames[segment + 1], t, ref);
+      const FilterOutput& out = filter.step(ref);
+      ++run.ticks;
+      run.status_union |= out.status;
+      run.check.add(filter, out, model.info(), mu);
+      for (int i = 0; i < out.num_contacts; ++i) {
+        const double fz = out.contacts[static_cast<std::size_t>(i)].normal_force_n;
+        run.min_normal_n = std::min(run.min_normal_n, fz);
+        if (fz < 0.0) {
+          ++run.pulling_ticks;
+          break;
+        }
+      }
+    }
+  }
+  run.counters = filter.output().counters;
+  return run;
+}
+
+std::vector<ReferenceFrame> retargetedClipStart(IDynamicsModel& model, const std::string& name,
+                                                const std::string& bvh_file, double seconds) {
+  // As tests/io/retarget_test.cpp reads a shipped clip: the mapping's scale, then retarget.
+  const io::RetargetMapping mapping =
+      io::readRetargetMapping(test::sourcePath("data/mocap/cmu/mappings/" + name + ".yaml"));
+  io::BvhReadOptions read_options;
+  read_options.length_scale = mapping.length_scale;
+  const io::BvhMotion bvh = io::readBvh(test::sourcePath("data/mocap/cmu/" + bvh_file), read_options);
+  std::vector<ReferenceFrame> frames = io::retargetBvh(bvh, mapping, model).motion.frames;
+  std::size_t n = 0;
+  while (n < frames.size() && frames[n].time_s <= seconds + 1e-9) ++n;
+  frames.resize(n);
+  return frames;
+}
+
+TEST(QpModeClip, KickInQpModeKeepsEveryContactPhysicalWherePaperModePulls) {
+  auto model = humanFigure();
+  const ModelInfo& info = model->info();
+  const auto frames = retargetedClipStart(*model, "10_01", "10_01_soccer_kick.bvh", 2.5);
+  ASSERT_GE(frames.size(), 200u);
+  const double period = frames[1].time_s - frames[0].time_s;
+  const int substeps = 4;  // 480 Hz on the 120 Hz clip, as dynfilter-offline does
+  const double weight = info.total_mass * kGravity;
+
+  FilterOptions qp = qpOptions(period / substeps);
+  const ClipRun q = filterClip(*model, frames, substeps, qp);
+  FilterOptions paper = qp;
+  paper.mode = FilterMode::kPaper;
+  const ClipRun p = filterClip(*model, frames, substeps, paper);
+
+  RecordProperty("qp_min_normal_force_n", sci(q.check.min_normal_n));
+  RecordProperty("paper_min_normal_force_n", sci(p.min_normal_n));
+  RecordProperty("paper_pulling_ticks", p.pulling_ticks);
+  RecordProperty("qp_relaxed_ticks", static_cast<int>(q.counters.qp_relaxed));
+  RecordProperty("qp_max_base_residual_n", sci(q.check.max_base_residual_n));
+
+  // What the QP mode is for: paper mode's bilateral links pull on the ground here.
+  EXPECT_GT(p.pulling_ticks, 0) << "paper mode's smallest normal force " << p.min_normal_n;
+
+  EXPECT_GT(q.check.contact_ticks, q.ticks / 2) << "the figure stands on the ground";
+  EXPECT_EQ(q.status_union & (kStatusQpFallback | kStatusNonFinite), 0u)
+      << "status union " << q.status_union;
+  EXPECT_GE(q.check.min_normal_n, qp.qp.min_normal_force_n - 1e-6);
+  EXPECT_LE(q.check.max_friction_excess, 1e-6);
+  EXPECT_GT(q.check.cop_checked, 0);
+  EXPECT_LE(q.check.max_cop_excess_m, 1e-6);
+  EXPECT_LE(q.check.max_torque_excess, 1e-6);
+  EXPECT_LE(q.check.max_base_residual_n, 1e-8 * weight);
+  EXPECT_EQ(q.counters.ticks, static_cast<std::uint64_t>(q.ticks));
+  EXPECT_EQ(q.counters.ticks, q.counters.qp_solves + q.counters.qp_fallbacks);
+  EXPECT_EQ(q.counters.qp_fallbacks, 0u);
+}
+
+// ---------------------------------------------------------------------------------------
+// Failures of the QP never pass silently
+
+// Forwards to ProxQP, then lies: reports infeasibility, or "solved" with a zero x.
+class FaultySolver final : public IQpSolver {
+ public:
+  enum class Fault { kReportInfeasible, kZeroSolution };
+  FaultySolver(std::unique_ptr<IQpSolver> inner, Fault fault) : inner_(std::move(inner)), fault_(fault) {}
+  QpSolveInfo solve(const DenseQp& problem, Eigen::Ref<Eigen::VectorXd> x) override {
+    QpSolveInfo info = inner_->solve(problem, x);
+    if (fault_ == Fault::kReportInfeasible) {
+      info.status = QpSolveStatus::kPrimalInfeasible;
+    } else {
+      x.setZero();
+      info.status = QpSolveStatus::kSolved;
+      info.primal_residual = 0.0;
+    }
+    return info;
+  }
+  void resetWarmStart() override { inner_->resetWarmStart(); }
+  const char* name() const override { return "faulty"; }
+
+ private:
+  std::unique_ptr<IQpSolver> inner_;
+  Fault fault_;
+};
+
+QpSolverFactory faultyFactory(FaultySolver::Fault fault) {
+  return [fault](int n, int n_eq, int n_in, const QpSolverSettings& settings) {
+    return std::make_unique<FaultySolver>(proxqp::makeSolver(n, n_eq, n_in, settings), fault);
+  };
+}
+
+// Runs the filter with @p factory and checks every tick falls back visibly, with torques
+// within their limits and Eq. 12 holding for what is published.
+void expectVisibleFallbackOnEveryTick(IDynamicsModel& model, const std::vector<ReferenceFrame>& frames,
+                                      const QpSolverFactory& factory, std::uint32_t expected_violated,
+                                      std::uint32_t* status_union_out) {
+  const ModelInfo& info = model.info();
+  const double weight = info.total_mass * kGravity;
+  DynamicsFilter filter(model, qpOptions(), factory);
+  filter.reset(frames.front());
+  std::uint32_t status_union = 0;
+  double max_base_residual = 0.0, max_eq12_residual = 0.0;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const FilterOutput& out = filter.step(frames[k]);
+    status_union |= out.status;
+    ASSERT_TRUE(out.status & kStatusQpFallback) << "tick " << k << " status " << out.status;
+    ASSERT_EQ(out.status & kStatusNonFinite, 0u) << "tick " << k;
+    if (expected_violated == 0u) {
+      EXPECT_EQ(out.qp_status, static_cast<int>(QpSolveStatus::kPrimalInfeasible)) << "tick " << k;
+    } else {
+      EXPECT_EQ(out.qp_violated & expected_violated, expected_violated)
+          << "tick " << k << " violated " << out.qp_violated;
+    }
+    for (int j = 0; j < info.nj; ++j)
+      ASSERT_LE(std::abs(out.tau_J[j]), info.tau_max[j] + 1e-9) << "joint " << j << " tick " << k;
+    max_base_residual = std::max(max_base_residual, out.base_residual_n);
+    max_eq12_residual = std::max(max_eq12_residual, out.eq12_residual);
+  }
+  const FilterCounters& c = filter.output().counters;
+  EXPECT_EQ(c.ticks, static_cast<std::uint64_t>(frames.size()));
+  EXPECT_EQ(c.qp_fallbacks, c.ticks);
+  EXPECT_EQ(c.qp_solves, 0u);
+  EXPECT_LE(max_base_residual, 1e-8 * weight);
+  EXPECT_LE(max_eq12_residual, 1e-6);
+  if (status_union_out) *status_union_out = status_union;
+}
+
+TEST(QpModeFallback, ReportedInfeasibilityFallsBackVisiblyAndEq12Holds) {
+  auto model = humanFigure();
+  const auto frames = test::simulateStandingSway(*model, 0.15, 1e-3);  // < max_degraded_ticks
+  expectVisibleFallbackOnEveryTick(*model, frames, faultyFactory(FaultySolver::Fault::kReportInfeasible),
+                                   0u, nullptr);
+}
+
+TEST(QpModeFallback, WeakFigureFallbackClampsTorquesAndReSolvesEq14) {
+  // Efforts of 5 N m cannot hold a squat: the paper solve's torques exceed them, so the
+  // fallback clamps (kStatusTorqueClamped) and re-solves Eq. 14 with the clamped torques.
+  const std::string path = testing::TempDir() + "/qp_weak_figure.urdf";
+  std::string text;
+  {
+    std::FILE* in = std::fopen(test::humanFigurePath().c_str(), "rb");
+    ASSERT_NE(in, nullptr);
+    char buffer[4096];
+    std::size_t n;
+    while ((n = std::fread(buffer, 1, sizeof buffer, in)) > 0) text.append(buffer, n);
+    std::fclose(in);
+  }
+  for (std::size_t at = text.find("effort=\""); at != std::string::npos;
+       at = text.find("effort=\"", at + 1)) {
+    const std::size_t end = text.find('"', at + 8);
+    text.replace(at + 8, end - (at + 8), "5");
+  }
+  {
+    std::FILE* out = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(out, nullptr);
+    std::fwrite(text.data(), 1, text.size(), out);
+    std::fclose(out);
+  }
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(path), ModelOptions{});
+  ASSERT_DOUBLE_EQ(model->info().tau_max.maxCoeff(), 5.0);
+  ReferenceFrame hold = standingReference(*model);
+  std::vector<ReferenceFrame> frames(100, hold);
+  for (std::size_t k = 0; k < frames.size(); ++k) frames[k].time_s = 1e-3 * k;
+  std::uint32_t status_union = 0;
+  expectVisibleFallbackOnEveryTick(*model, frames, faultyFactory(FaultySolver::Fault::kReportInfeasible),
+                                   0u, &status_union);
+  EXPECT_TRUE(status_union & kStatusTorqueClamped) << status_union;
+}
+
+TEST(QpModeFallback, SolvedWithAWrongAnswerIsCaughtByTheCheck) {
+  // "Solved" with x = 0: v̇ = 0, τ_C = 0 cannot satisfy the base rows under gravity
+  // (b_b ≠ 0), so check() flags the equality family and no relaxation can rescue it.
+  auto model = humanFigure();
+  const auto frames = test::simulateStandingSway(*model, 0.15, 1e-3);  // < max_degraded_ticks
+  expectVisibleFallbackOnEveryTick(*model, frames, faultyFactory(FaultySolver::Fault::kZeroSolution),
+                                   kQpFamilyEquality, nullptr);
+}
+
+// ---------------------------------------------------------------------------------------
+// Release ramp: a foot the reference lifts hands its load over at the ramp's rate
+//
+// The ramp is an upper bound on the lifted link's normal force (normalForceUpperBound): it
+// forces the load off a foot the QP would otherwise keep loading. It does not stop the QP
+// from unloading a foot faster by itself: with the default joint gains and a reference
+// that flexes the leg, the QP drops the sole to min_normal_force_n within a tick of the
+// lift's start and the link leaves by the release_ticks rule before the clearance is
+// reached. So the reference here is poses only (v = v̇ = 0) with weak joint feedback: the
+// lift itself asks for little, the sole stays loaded until the reference is
+// liftoff_clearance_m up, and the ramp is what unloads it.
+
+// The figure shifts its pelvis over the right sole (hip and ankle rolls as a
+// parallelogram; the soles stay where they stood), then flexes the left leg so that the
+// left sole rises @p lift_m over @p lift_s (quintic), and holds. Poses only.
+std::vector<ReferenceFrame> liftLeftFootReference(IDynamicsModel& model, double dt, double lift_m,
+                                                  double lift_s) {
+  const ModelInfo& info = model.info();
+  const ReferenceFrame stand = standingReference(model);
+  const int r_foot = info.findBody("r_foot"), l_foot = info.findBody("l_foot");
+  auto index = [&info](const std::string& joint) {
+    return info.configurationIndex(info.findJoint(joint));
+  };
+  const Eigen::VectorXd zero_v = Eigen::VectorXd::Zero(info.nv);
+  model.setState(stand.q, zero_v);
+  const Eigen::Vector3d r_foot0 = model.bodyPose(r_foot).translation();
+  const Eigen::Vector3d l_foot0 = model.bodyPose(l_foot).translation();
+
+  // Pose at leg roll @p roll and left-leg flex @p flex, the base placed so that the right
+  // sole is where it stood.
+  auto pose = [&](double roll, double flex) {
+    Eigen::VectorXd q = stand.q;
+    for (const char* side : {"l_", "r_"}) {
+      const std::string p = side;
+      q[index(p + "hip_roll")] = roll;
+      q[index(p + "ankle_roll")] = -roll;
+    }
+    q[index("l_hip_pitch")] += -flex;
+    q[index("l_knee")] += 2.0 * flex;
+    q[index("l_ankle_pitch")] += -flex;
+    model.setState(q, zero_v);
+    q.head<3>() += r_foot0 - model.bodyPose(r_foot).translation();
+    return q;
+  };
+  // The roll that puts the pelvis over the right sole, and the flex that lifts the left
+  // sole by lift_m (both by bisection).
+  auto pelvis_offset = [&](double roll) { return pose(roll, 0.0)[1] - r_foot0.y(); };
+  double lo = -0.3, hi = 0.3;
+  if (pelvis_offset(lo) > pelvis_offset(hi)) std::swap(lo, hi);
+  for (int it = 0; it < 60; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (pelvis_offset(mid) < 0.0 ? lo : hi) = mid;
+  }
+  const double roll_star = 0.5 * (lo + hi);
+  auto sole_rise = [&](double flex) {
+    model.setState(pose(roll_star, flex), zero_v);
+    return model.bodyPose(l_foot).translation().z() - l_foot0.z();
+  };
+  double flo = 0.0, fhi = 0.8;
+  for (int it = 0; it < 60; ++it) {
+    const double mid = 0.5 * (flo + fhi);
+    (sole_rise(mid) < lift_m ? flo : fhi) = mid;
+  }
+  const double flex_star = 0.5 * (flo + fhi);
+  EXPECT_NEAR(sole_rise(flex_star), lift_m, 1e-6);
+
+  auto smooth = [](double x) {  // 0 → 1 with zero slope and curvature at both ends
+    x = std::clamp(x, 0.0, 1.0);
+    return x * x * x * (10.0 + x * (-15.0 + 6.0 * x));
+  };
+  const double settle_s = 0.3, shift_s = 1.0, hold_s = 0.3, after_s = 0.3;
+  const double lift_start_s = settle_s + shift_s + hold_s;
+  const int n = static_cast<int>(std::lround((lift_start_s + lift_s + after_s) / dt));
+  std::vector<ReferenceFrame> frames(static_cast<std::size_t>(n), ReferenceFrame(info.nq, info.nv));
+  for (int k = 0; k < n; ++k) {
+    const double t = k * dt;
+    ReferenceFrame& f = frames[static_cast<std::size_t>(k)];
+    f.time_s = t;
+    f.q = pose(smooth((t - settle_s) / shift_s) * roll_star,
+               smooth((t - lift_start_s) / lift_s) * flex_star);
+  }
+  return frames;
+}
+
+struct RampRun {
+  double start_force_n = 0.0;        // the left sole's force when its ramp began
+  double max_drop_rate = 0.0;        // N/s, largest tick-to-tick decrease during the ramp
+  double max_bound_excess = -1e300;  // force − the linear ramp bound (≤ 0: under it)
+  double max_bound_gap = 0.0;        // bound − force after the first ramp tick
+  double last_force_n = 0.0;         // on the last tick before release
+  int ramp_ticks = 0;                // ticks of the ramp, the release tick included
+  int release_tick = -1;
+  int released_early = 0;            // left sole released before any ramp started
+  std::uint32_t status_union = 0;
+  std::uint64_t links_released = 0;
+  int links_before = 0, links_after = 0;
+};
+
+RampRun runRamp(double transition_s) {
+  auto model = humanFigure();
+  const ModelInfo& info = model->info();
+  const double dt = 1e-3;
+  const auto frames = liftLeftFootReference(*model, dt, 0.05, 0.2);
+  FilterOptions options = qpOptions(dt);
+  options.qp.release_transition_s = transition_s;
+  options.feedback.joint_kp = 4.0;  // weak: see above
+  options.feedback.joint_kd = 4.0;
+  DynamicsFilter filter(*model, options, proxqp::factory());
+  filter.reset(frames.front());
+  const int l_foot = info.findBody("l_foot");
+  const double f_min = options.qp.min_normal_force_n;
+  RampRun run;
+  int first_ramp_tick = -1;
+  double previous = 0.0;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const int links_before = filter.links().size();
+    const std::uint64_t released_before = filter.output().counters.links_released;
+    const FilterOutput& out = filter.step(frames[k]);
+    run.status_union |= out.status;
+    double force = std::nan("");
+    for (int i = 0; i < out.num_contacts; ++i)
+      if (out.contacts[static_cast<std::size_t>(i)].body == l_foot)
+        force = out.contacts[static_cast<std::size_t>(i)].normal_force_n;
+    for (int i = 0; i < filter.links().size(); ++i) {
+      const VirtualLink& link = filter.links()[i];
+      if (link.body != l_foot || !link.releasing) continue;
+      if (first_ramp_tick < 0) {  // the force of the tick before the ramp
+        first_ramp_tick = static_cast<int>(k);
+        run.start_force_n = link.release_start_force_n;
+        previous = link.release_start_force_n;
+      }
+    }
+    const bool released_now = out.counters.links_released > released_before;
+    if (released_now && first_ramp_tick < 0) ++run.released_early;
+    if (first_ramp_tick >= 0 && run.release_tick < 0 && !std::isnan(force)) {
+      const int i = static_cast<int>(k) - first_ramp_tick;
+      const double bound = std::max(f_min, run.start_force_n * (1.0 - i * dt / transition_s));
+      run.max_bound_excess = std::max(run.max_bound_excess, force - bound);
+      // On the ramp's first tick the bound is the previous tick's force, which the force
+      // may already be under; from the second on the bound binds.
+      if (i > 0) run.max_bound_gap = std::max(run.max_bound_gap, bound - force);
+      run.max_drop_rate = std::max(run.max_drop_rate, (previous - force) / dt);
+      previous = force;
+      run.last_force_n = force;
+      ++run.ramp_ticks;
+      if (released_now) {
+        run.release_tick = static_cast<int>(k);
+        run.links_before = links_before;
+        run.links_after = filter.links().size();
+      }
+    }
+  }
+  run.links_released = filter.output().counters.links_released;
+  return run;
+}
+
+void expectRamp(const RampRun& run, double transition_s) {
+  const double dt = 1e-3, f_min = QpModeOptions{}.min_normal_force_n;
+  EXPECT_EQ(run.released_early, 0) << "the left sole left before its ramp";
+  ASSERT_GE(run.release_tick, 0) << "the left sole's ramp never ended in a release";
+  EXPECT_EQ(run.status_union & (kStatusQpFallback | kStatusQpRelaxed | kStatusNonFinite), 0u)
+      << run.status_union;
+  // The sole still carried a good part of the weight when the reference was 2 cm up.
+  EXPECT_GT(run.start_force_n, 50.0);
+  // The force stays under the linear ramp F0 (1 − t/T), rides it (the ramp is what
+  // unloads the sole here), and so decreases no faster than F0/T.
+  EXPECT_LE(run.max_bound_excess, 1e-6);
+  EXPECT_LE(run.max_bound_gap, 1e-3);
+  EXPECT_LE(run.max_drop_rate, run.start_force_n / transition_s + 1e-3 / dt);
+  // Duration T, to a tick (the elapsed time is summed tick by tick).
+  EXPECT_NEAR(run.ramp_ticks * dt, transition_s, 1.01 * dt);
+  // The link leaves when the ramp has run T: its last force is the ramp's last step,
+  // F0 dt / T, above the minimum (the bound reaches f_min only at T, when it is released).
+  EXPECT_NEAR(run.last_force_n, std::max(f_min, run.start_force_n * dt / transition_s), 1e-3);
+  EXPECT_EQ(run.links_after, run.links_before - 1);
+  EXPECT_EQ(run.links_after, 1) << "the right sole stays";
+  EXPECT_GE(run.links_released, 1u);
+}
+
+TEST(QpModeReleaseRamp, LiftedFootHandsItsLoadOverAtTheRampRate) {
+  const RampRun fast = runRamp(0.05);
+  const RampRun slow = runRamp(0.1);
+  RecordProperty("fast_start_force_n", sci(fast.start_force_n));
+  RecordProperty("fast_ramp_s", sci(fast.ramp_ticks * 1e-3));
+  RecordProperty("fast_last_force_n", sci(fast.last_force_n));
+  RecordProperty("fast_max_drop_rate", sci(fast.max_drop_rate));
+  RecordProperty("fast_max_bound_gap_n", sci(fast.max_bound_gap));
+  RecordProperty("slow_start_force_n", sci(slow.start_force_n));
+  RecordProperty("slow_ramp_s", sci(slow.ramp_ticks * 1e-3));
+  RecordProperty("slow_last_force_n", sci(slow.last_force_n));
+  RecordProperty("slow_max_drop_rate", sci(slow.max_drop_rate));
+  {
+    SCOPED_TRACE("release_transition_s 0.05");
+    expectRamp(fast, 0.05);
+  }
+  {
+    SCOPED_TRACE("release_transition_s 0.1");
+    expectRamp(slow, 0.1);
+  }
+  // Twice the transition: twice the duration (±1 tick each), half the rate.
+  ASSERT_GT(fast.ramp_ticks, 0);
+  EXPECT_NEAR(static_cast<double>(slow.ramp_ticks) / fast.ramp_ticks, 2.0, 0.05);
+  EXPECT_NEAR(slow.max_drop_rate / fast.max_drop_rate, 0.5 * slow.start_force_n / fast.start_force_n,
+              0.02);
+}
+
+}  // namespace
+}  // namespace dynfilter

@@ -1,0 +1,169 @@
+// The ProxQP adapter (dynfilter::proxqp::makeSolver) on small dense QPs whose answers are
+// worked out by hand from the KKT conditions.
+#include <memory>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+
+#include "dynfilter/core/qp_solver.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
+
+namespace dynfilter {
+namespace {
+
+// min ½‖x − c‖², c = (2, 1, 0), s.t. x0 + x1 + x2 = 1, x0 ≤ 1 (box), x2 ≥ −0.25 (row of C),
+// plus one unbounded row of C and unbounded boxes on x1, x2.
+// KKT with L = ½‖x − c‖² − λ (Σx − 1) + μ (x0 − 1) − ν (x2 + 0.25), both bounds active:
+//   x = (1, 0.25, −0.25): x1 − c1 = λ → λ = −0.75; x0: 1 − 2 + 0.75 + μ = 0 → μ = 0.25 ≥ 0;
+//   x2: −0.25 − 0 + 0.75 − ν = 0 → ν = 0.5 ≥ 0. (Without the bounds the projection onto the
+//   plane would be (4/3, 1/3, −2/3), which violates both.)
+DenseQp projectionProblem() {
+  DenseQp qp(3, 1, 2);
+  qp.H.setIdentity();
+  qp.g = -Eigen::Vector3d(2.0, 1.0, 0.0);
+  qp.A << 1.0, 1.0, 1.0;
+  qp.b << 1.0;
+  qp.C << 0.0, 0.0, 1.0,  //
+      1.0, -1.0, 0.5;     // unbounded on both sides
+  qp.l << -0.25, -kQpInfinity;
+  qp.u << kQpInfinity, kQpInfinity;
+  qp.x_lower.setConstant(-kQpInfinity);
+  qp.x_upper << 1.0, kQpInfinity, kQpInfinity;
+  return qp;
+}
+
+QpSolverSettings tightSettings() {
+  QpSolverSettings s;
+  s.eps_abs = 1e-10;
+  s.max_iterations = 1000;
+  return s;
+}
+
+TEST(ProxQpAdapter, ProjectionWithActiveBoxAndRowMatchesKkt) {
+  auto solver = proxqp::makeSolver(3, 1, 2, tightSettings());
+  ASSERT_NE(solver, nullptr);
+  EXPECT_STREQ(solver->name(), "proxqp");
+  const DenseQp qp = projectionProblem();
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(3, 99.0);
+  const QpSolveInfo info = solver->solve(qp, x);
+  EXPECT_EQ(info.status, QpSolveStatus::kSolved) << toString(info.status);
+  EXPECT_NEAR(x[0], 1.0, 1e-8);
+  EXPECT_NEAR(x[1], 0.25, 1e-8);
+  EXPECT_NEAR(x[2], -0.25, 1e-8);
+  EXPECT_LE(info.primal_residual, 1e-9);
+  EXPECT_GT(info.iterations, 0);
+}
+
+TEST(ProxQpAdapter, WarmStartedResolveTakesNoMoreIterations) {
+  auto solver = proxqp::makeSolver(3, 1, 2, tightSettings());
+  const DenseQp qp = projectionProblem();
+  Eigen::VectorXd x(3);
+  const QpSolveInfo first = solver->solve(qp, x);
+  ASSERT_EQ(first.status, QpSolveStatus::kSolved);
+  const Eigen::VectorXd x_first = x;
+  const QpSolveInfo second = solver->solve(qp, x);
+  EXPECT_EQ(second.status, QpSolveStatus::kSolved);
+  EXPECT_LE(second.iterations, first.iterations);
+  EXPECT_LT((x - x_first).cwiseAbs().maxCoeff(), 1e-8);
+  RecordProperty("cold_iterations", first.iterations);
+  RecordProperty("warm_iterations", second.iterations);
+
+  // After resetWarmStart the solve starts cold again: the same answer.
+  solver->resetWarmStart();
+  const QpSolveInfo cold = solver->solve(qp, x);
+  EXPECT_EQ(cold.status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], 1.0, 1e-8);
+  EXPECT_NEAR(x[1], 0.25, 1e-8);
+  EXPECT_NEAR(x[2], -0.25, 1e-8);
+}
+
+TEST(ProxQpAdapter, ChangedDataOnTheSameInstanceIsSolvedAnew) {
+  // A warm start from the previous answer must not leak it into a different problem:
+  // moving c to (−2, 1, 0) makes the box inactive. Σx = 1 with x2 ≥ −0.25:
+  // projection (−2, 1, 0) + λ(1,1,1), λ = 2/3 → (−4/3, 5/3, 2/3): feasible, so the answer.
+  auto solver = proxqp::makeSolver(3, 1, 2, tightSettings());
+  DenseQp qp = projectionProblem();
+  Eigen::VectorXd x(3);
+  ASSERT_EQ(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  qp.g = -Eigen::Vector3d(-2.0, 1.0, 0.0);
+  const QpSolveInfo info = solver->solve(qp, x);
+  EXPECT_EQ(info.status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], -4.0 / 3.0, 1e-8);
+  EXPECT_NEAR(x[1], 5.0 / 3.0, 1e-8);
+  EXPECT_NEAR(x[2], 2.0 / 3.0, 1e-8);
+}
+
+TEST(ProxQpAdapter, InfiniteBoundsAreUnbounded) {
+  // Every inequality side and box at ±kQpInfinity: only Σx = 1 binds, so the answer is the
+  // projection (4/3, 1/3, −2/3). A bound taken as the finite 1e20 would enter ProxQP's
+  // duality gap (z · 1e20) and keep it from converging.
+  auto solver = proxqp::makeSolver(3, 1, 2, tightSettings());
+  DenseQp qp = projectionProblem();
+  qp.l.setConstant(-kQpInfinity);
+  qp.u.setConstant(kQpInfinity);
+  qp.x_lower.setConstant(-kQpInfinity);
+  qp.x_upper.setConstant(kQpInfinity);
+  Eigen::VectorXd x(3);
+  const QpSolveInfo info = solver->solve(qp, x);
+  EXPECT_EQ(info.status, QpSolveStatus::kSolved) << toString(info.status);
+  EXPECT_NEAR(x[0], 4.0 / 3.0, 1e-8);
+  EXPECT_NEAR(x[1], 1.0 / 3.0, 1e-8);
+  EXPECT_NEAR(x[2], -2.0 / 3.0, 1e-8);
+  EXPECT_LE(info.iterations, 20);
+
+  // One-sided: x2 ≥ −0.25 with +∞ above, boxes −∞ below. Answer: x2 = −0.25 and
+  // x0 − 2 = x1 − 1 = λ, x0 + x1 = 1.25 → λ = −0.875, x = (1.125, 0.125, −0.25).
+  qp.l[0] = -0.25;
+  solver->resetWarmStart();
+  const QpSolveInfo one_sided = solver->solve(qp, x);
+  EXPECT_EQ(one_sided.status, QpSolveStatus::kSolved) << toString(one_sided.status);
+  EXPECT_NEAR(x[0], 1.125, 1e-8);
+  EXPECT_NEAR(x[1], 0.125, 1e-8);
+  EXPECT_NEAR(x[2], -0.25, 1e-8);
+}
+
+TEST(ProxQpAdapter, InfeasibleProblemIsNotReportedSolved) {
+  // x ≥ 1 (box) and x ≤ 0 (row of C): no x satisfies both.
+  QpSolverSettings settings;
+  settings.max_iterations = 500;
+  auto solver = proxqp::makeSolver(1, 0, 1, settings);
+  DenseQp qp(1, 0, 1);
+  qp.H(0, 0) = 1.0;
+  qp.g[0] = 0.0;
+  qp.C(0, 0) = 1.0;
+  qp.l[0] = -kQpInfinity;
+  qp.u[0] = 0.0;
+  qp.x_lower[0] = 1.0;
+  qp.x_upper[0] = kQpInfinity;
+  Eigen::VectorXd x(1);
+  const QpSolveInfo info = solver->solve(qp, x);
+  RecordProperty("solve_status", toString(info.status));
+  EXPECT_TRUE(info.status == QpSolveStatus::kPrimalInfeasible ||
+              info.status == QpSolveStatus::kMaxIterations)
+      << toString(info.status);
+  // Whatever the iterate, it cannot satisfy both bounds.
+  EXPECT_TRUE(x[0] < 1.0 - 1e-9 || x[0] > 1e-9) << x[0];
+  // The next solve of the same instance (no warm start from a failure) fails the same way.
+  const QpSolveInfo again = solver->solve(qp, x);
+  EXPECT_NE(again.status, QpSolveStatus::kSolved);
+}
+
+TEST(ProxQpAdapter, InvalidDimensionsAndSettingsThrow) {
+  EXPECT_THROW(proxqp::makeSolver(0, 0, 0, QpSolverSettings{}), std::invalid_argument);
+  EXPECT_THROW(proxqp::makeSolver(3, -1, 0, QpSolverSettings{}), std::invalid_argument);
+  QpSolverSettings bad;
+  bad.eps_abs = 0.0;
+  EXPECT_THROW(proxqp::makeSolver(3, 1, 0, bad), std::invalid_argument);
+  bad = QpSolverSettings{};
+  bad.max_iterations = 0;
+  EXPECT_THROW(proxqp::makeSolver(3, 1, 0, bad), std::invalid_argument);
+  // The factory builds the same engine.
+  auto solver = proxqp::factory()(3, 1, 2, tightSettings());
+  ASSERT_NE(solver, nullptr);
+  Eigen::VectorXd x(3);
+  EXPECT_EQ(solver->solve(projectionProblem(), x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[1], 0.25, 1e-8);
+}
+
+}  // namespace
+}  // namespace dynfilter
