@@ -97,7 +97,7 @@ std::uint32_t PaperSolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
 
   // G = C_v C_vᵀ / w_a + C_c C_cᵀ / w_f, factorised; explicit G⁻¹ for R.
   auto G = G_.topLeftCorner(m, m);
-  G.noalias() = Cv * Cv.transpose() / wa;
+  G.noalias() = (1.0 / wa) * Cv * Cv.transpose();
   G.topLeftCorner(nb, nb) += HbTHb_ / wf;
   auto Ginv = Ginv_.topLeftCorner(m, m);
   if (!choleskyInPlace(G, Ginv)) status |= kStatusRankDeficient;
@@ -108,9 +108,9 @@ std::uint32_t PaperSolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   auto lambda = lambda_.head(m);
   lambda.noalias() = Ginv * d;
   Eigen::VectorXd& vdot0 = zv_;
-  vdot0.noalias() = Cv.transpose() * lambda / wa;
+  vdot0.noalias() = (1.0 / wa) * Cv.transpose() * lambda;
   auto tauC0 = zc_.head(nc);
-  tauC0.noalias() = -Hb * lambda.head(nb) / wf;
+  tauC0.noalias() = (-1.0 / wf) * Hb * lambda.head(nb);
 
   // V_G V_Gᵀ + k I = (1 + k) I − C_vᵀ R C_v.
   auto R = R_.topLeftCorner(m, m);
@@ -136,7 +136,7 @@ std::uint32_t PaperSolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   auto mu = mu_.head(m);
   auto t = t_.head(m);
   t.noalias() = Cv * w_;
-  mu.noalias() = Ginv * t / wa;
+  mu.noalias() = (1.0 / wa) * Ginv * t;
   yv_ = w_;
   yv_.noalias() -= Cv.transpose() * mu;
   auto yc = yc_.head(nc);
@@ -146,9 +146,9 @@ std::uint32_t PaperSolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   t.head(nb).noalias() -= Hb.transpose() * yc;
   mu.noalias() = Ginv * t;
   vdot = vdot0 + yv_;
-  vdot.noalias() -= Cv.transpose() * mu / wa;
+  vdot.noalias() -= (1.0 / wa) * Cv.transpose() * mu;
   tau_C = tauC0 + yc;
-  tau_C.noalias() += Hb * mu.head(nb) / wf;
+  tau_C.noalias() += (1.0 / wf) * Hb * mu.head(nb);
 
   // τ_J from the joint rows: τ_J = (A v̇ + b − H_Cᵀ τ_C)_joints.
   tau_J = b.tail(nj);

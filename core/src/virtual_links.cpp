@@ -245,9 +245,9 @@ void VirtualLinkSet::assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::Mat
       const int axis = link.axes[static_cast<std::size_t>(k)];
       const Eigen::Matrix3d& R = R_AW;
       if (axis < 3) {
-        H_C.row(row) = R.row(axis) * J_.topRows<3>();
+        H_C.row(row).noalias() = R.row(axis) * J_.topRows<3>();
       } else {
-        H_C.row(row) = R.row(axis - 3) * J_.bottomRows<3>();
+        H_C.row(row).noalias() = R.row(axis - 3) * J_.bottomRows<3>();
       }
       const double velocity = H_C.row(row).dot(v);
       const double desired = -options_.stabilization_kd * velocity -

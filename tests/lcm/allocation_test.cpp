@@ -1,6 +1,6 @@
 // No heap allocation when receiving and sending in steady state: the same joint order as
-// the previous message (any order), reused messages and buffers. This executable replaces
-// the global operator new to count allocations while a flag is set.
+// the previous message (any order), reused messages and buffers. Allocations are counted
+// by tests/support/allocation_counter.cpp (operator new and malloc).
 #include <atomic>
 #include <cstdlib>
 #include <new>
@@ -8,24 +8,21 @@
 #include <gtest/gtest.h>
 
 #include "lcm/lcm_test_support.hpp"
+#include "support/allocation_counter.hpp"
 
 namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<long> g_allocations{0};
+namespace alloc = dynfilter::test::allocations;
 
+// Counts every heap allocation (operator new and the malloc family) while alive.
 struct Counting {
-  Counting() { g_allocations = 0; g_counting = true; }
-  ~Counting() { g_counting = false; }
+  Counting() {
+    alloc::resetCounts();
+    alloc::g_counting = true;
+  }
+  ~Counting() { alloc::g_counting = false; }
 };
+long countedAllocations() { return alloc::g_core_new + alloc::g_core_malloc; }
 }  // namespace
-
-void* operator new(std::size_t size) {
-  if (g_counting.load(std::memory_order_relaxed)) ++g_allocations;
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace dynfilter::messages {
 namespace {
@@ -61,7 +58,7 @@ TEST(LcmAllocation, ReceivingFramesInARepeatedOrderDoesNotAllocate) {
       accepted += reader.read(frames[k].data(), frames[k].size(), input).ok() ? 1 : 0;
     // A rejected frame does not allocate either.
     accepted += reader.read(frames[3].data(), frames[3].size(), input).ok() ? 1 : 0;  // backwards
-    allocations = g_allocations;
+    allocations = countedAllocations();
   }
   EXPECT_EQ(accepted, 49);
   EXPECT_EQ(allocations, 0);
@@ -85,7 +82,7 @@ TEST(LcmAllocation, ReceivingRobotStatesDoesNotAllocate) {
   {
     Counting counting;
     for (std::size_t k = 1; k < states.size(); ++k) (void)reader.read(states[k].data(), states[k].size(), input);
-    allocations = g_allocations;
+    allocations = countedAllocations();
   }
   EXPECT_EQ(input.utime, 19000);
   EXPECT_EQ(allocations, 0);
@@ -126,7 +123,7 @@ TEST(LcmAllocation, FillingAndEncodingTheOutputsDoesNotAllocate) {
   {
     Counting counting;
     for (int k = 2; k < 50; ++k) ok += tick(k) ? 1 : 0;
-    allocations = g_allocations;
+    allocations = countedAllocations();
   }
   EXPECT_EQ(ok, 48);
   EXPECT_EQ(allocations, 0);

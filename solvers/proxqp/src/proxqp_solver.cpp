@@ -18,7 +18,10 @@ class ProxQpSolver final : public IQpSolver {
         l_(n_in),
         u_(n_in),
         x_lower_(n),
-        x_upper_(n) {
+        x_upper_(n),
+        H_(n, n),
+        A_(n_eq, n),
+        C_(n_in, n) {
     qp_.settings.eps_abs = settings.eps_abs;
     qp_.settings.eps_rel = 0.0;
     qp_.settings.max_iter = settings.max_iterations;
@@ -37,15 +40,20 @@ class ProxQpSolver final : public IQpSolver {
     mapInfinity(p.u, u_);
     mapInfinity(p.x_lower, x_lower_);
     mapInfinity(p.x_upper, x_upper_);
+    // ProxQP stores row-major matrices: copies into preallocated row-major members keep
+    // Eigen::Ref from making temporaries.
+    H_ = p.H;
+    A_ = p.A;
+    C_ = p.C;
     if (!initialized_) {
-      qp_.init(p.H, p.g, p.A, p.b, p.C, l_, u_, x_lower_, x_upper_, true);
+      qp_.init(H_, p.g, A_, p.b, C_, l_, u_, x_lower_, x_upper_, true);
       initialized_ = true;
     } else {
       // Ruiz equilibration is recomputed on a cold start (a new contact set) only: ~80 µs
       // a tick on the standing figure; the problem changes little while the contacts stay.
       const bool warm =
           qp_.settings.initial_guess == pq::InitialGuessStatus::WARM_START_WITH_PREVIOUS_RESULT;
-      qp_.update(p.H, p.g, p.A, p.b, p.C, l_, u_, x_lower_, x_upper_, !warm);
+      update(p, !warm);
     }
     qp_.solve();
     int iterations = static_cast<int>(qp_.results.info.iter);
@@ -55,7 +63,7 @@ class ProxQpSolver final : public IQpSolver {
     if (qp_.results.info.status != pq::QPSolverOutput::PROXQP_SOLVED &&
         qp_.settings.initial_guess == pq::InitialGuessStatus::WARM_START_WITH_PREVIOUS_RESULT) {
       qp_.settings.initial_guess = pq::InitialGuessStatus::EQUALITY_CONSTRAINED_INITIAL_GUESS;
-      qp_.update(p.H, p.g, p.A, p.b, p.C, l_, u_, x_lower_, x_upper_, true);  // and re-scaled
+      update(p, true);  // and re-scaled
       qp_.solve();
       iterations += static_cast<int>(qp_.results.info.iter);
     }
@@ -91,6 +99,18 @@ class ProxQpSolver final : public IQpSolver {
   }
 
  private:
+  // proxsuite's update() copies the vectors through .eval() temporaries (4 allocations a
+  // solve): they are written into its model here instead, and only the matrices and box
+  // bounds go through update() (which flags the refactorisation).
+  void update(const DenseQp& p, bool precondition) {
+    qp_.model.g = p.g;
+    qp_.model.b = p.b;
+    qp_.model.l = l_;
+    qp_.model.u = u_;
+    qp_.update(H_, std::nullopt, A_, std::nullopt, C_, std::nullopt, std::nullopt, x_lower_, x_upper_,
+               precondition);
+  }
+
   static void mapInfinity(const Eigen::VectorXd& in, Eigen::VectorXd& out) {
     const double inf = proxsuite::helpers::infinite_bound<double>::value();
     for (Eigen::Index i = 0; i < in.size(); ++i)
@@ -101,6 +121,8 @@ class ProxQpSolver final : public IQpSolver {
   QpSolverSettings settings_;
   bool initialized_ = false;
   Eigen::VectorXd l_, u_, x_lower_, x_upper_;
+  using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  RowMajorMatrix H_, A_, C_;
 };
 
 }  // namespace
