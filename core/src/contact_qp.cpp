@@ -105,7 +105,8 @@ ContactQp::ContactQp(const ModelInfo& info, int max_links, double dt_s,
   M_.setZero(nj_, nv_ + max_rows);
   residual_.setZero(nv_ + max_rows);
   link_bounds_.resize(static_cast<std::size_t>(max_links));
-  equality_tolerance_ = 1e-8 * std::max(info.total_mass, 1.0) * kGravity;
+  weight_n_ = std::max(info.total_mass, 1e-9) * kGravity;
+  equality_tolerance_ = 1e-8 * std::max(weight_n_, kGravity);
 }
 
 ContactQp::~ContactQp() = default;
@@ -219,9 +220,16 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     lb.mu = link.object == kGroundObject || link.object >= static_cast<int>(environment.boxes.size())
                 ? environment.ground.friction
                 : environment.boxes[static_cast<std::size_t>(link.object)].friction;
-    lb.f_min = options_.min_normal_force_n;
     lb.f_max = links.normalForceUpperBound(i, options_.min_normal_force_n,
                                            options_.release_transition_s);
+    // No jerk: a held link unloads no faster than max(weight, its ramp's start force) per
+    // release_transition_s — whether the reference lifts it (ramp) or the solver would
+    // rather drop it at once. New links start free.
+    lb.f_min = options_.min_normal_force_n;
+    if (!link.created_this_tick && options_.release_transition_s > 0.0) {
+      const double rate = std::max(weight_n_, link.release_start_force_n) / options_.release_transition_s;
+      lb.f_min = std::max(lb.f_min, std::min(link.normal_force_n, lb.f_max) - rate * dt_s_);
+    }
     const double margin = options_.cop_margin_m;
     lb.cop_min = link.support_min.array() + margin;
     lb.cop_max = link.support_max.array() - margin;
@@ -300,17 +308,21 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     sc.solver->resetWarmStart();
     report.ok = extract();
   }
-  bool ramping = false;
-  for (int i = 0; i < num_links; ++i) ramping = ramping || links[i].releasing;
-  if (!report.ok && ramping) {
-    // Still infeasible while contacts ramp out: the remaining support cannot take the load
-    // that fast (e.g. both feet of a jump). The ramps' upper bounds give way for the tick;
-    // those links then leave when the solver brings their force to the minimum.
+  bool rate_bounded = false;
+  for (int i = 0; i < num_links; ++i)
+    rate_bounded = rate_bounded || link_bounds_[static_cast<std::size_t>(i)].f_min > options_.min_normal_force_n ||
+                   std::isfinite(link_bounds_[static_cast<std::size_t>(i)].f_max);
+  if (!report.ok && rate_bounded) {
+    // Still infeasible with the normal forces' rate bounds (release ramps, unloading rate):
+    // the remaining support cannot take the load that fast (e.g. both feet of a jump).
+    // They give way for the tick.
     report.ramps_dropped = true;
     for (int i = 0; i < num_links; ++i) {
       LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
       lb.f_max = std::numeric_limits<double>::infinity();
+      lb.f_min = options_.min_normal_force_n;
       qp.x_upper[nv_ + lb.row + 2] = kQpInfinity;
+      qp.x_lower[nv_ + lb.row + 2] = lb.f_min;
     }
     const int earlier_iterations = report.info.iterations;
     sc.solver->resetWarmStart();

@@ -316,7 +316,8 @@ int VirtualLinkSet::finishTick(const IDynamicsModel& model,
     bool ramp_done = false;
     if (link.releasing) {
       link.release_elapsed_s += dt_s;
-      ramp_done = link.release_elapsed_s >= transition_s;
+      // Done once a solve has run with the bound at the minimum (elapsed = transition).
+      ramp_done = link.release_elapsed_s >= transition_s + 0.5 * dt_s;
     }
     const bool release =
         allow_release && (link.low_force_ticks >= options_.release_ticks || ramp_done);

@@ -613,9 +613,9 @@ void expectRamp(const RampRun& run, double transition_s) {
   EXPECT_LE(run.max_drop_rate, run.start_force_n / transition_s + 1e-3 / dt);
   // Duration T, to a tick (the elapsed time is summed tick by tick).
   EXPECT_NEAR(run.ramp_ticks * dt, transition_s, 1.01 * dt);
-  // The link leaves when the ramp has run T: its last force is the ramp's last step,
-  // F0 dt / T, above the minimum (the bound reaches f_min only at T, when it is released).
-  EXPECT_NEAR(run.last_force_n, std::max(f_min, run.start_force_n * dt / transition_s), 1e-3);
+  // The link leaves after the solve at which the bound reached f_min: its last force is
+  // the minimum, so the release itself is a step of at most f_min.
+  EXPECT_NEAR(run.last_force_n, f_min, 1e-3);
   EXPECT_EQ(run.links_after, run.links_before - 1);
   EXPECT_EQ(run.links_after, 1) << "the right sole stays";
   EXPECT_GE(run.links_released, 1u);
@@ -646,6 +646,46 @@ TEST(QpModeReleaseRamp, LiftedFootHandsItsLoadOverAtTheRampRate) {
   EXPECT_NEAR(static_cast<double>(slow.ramp_ticks) / fast.ramp_ticks, 2.0, 0.05);
   EXPECT_NEAR(slow.max_drop_rate / fast.max_drop_rate, 0.5 * slow.start_force_n / fast.start_force_n,
               0.02);
+}
+
+// With the default (stiff) feedback the solver would rather drop the lifting sole at once
+// (measured before the unloading-rate bound: 341 N to 1 N in one tick, then released).
+// Every held sole now unloads no faster than max(weight, ramp start force) / T.
+TEST(QpModeReleaseRamp, NoSoleUnloadsFasterThanTheRateBoundWithDefaultGains) {
+  auto model = humanFigure();
+  const ModelInfo& info = model->info();
+  const double dt = 1e-3;
+  const auto frames = liftLeftFootReference(*model, dt, 0.05, 0.2);
+  FilterOptions options = qpOptions(dt);
+  DynamicsFilter filter(*model, options, proxqp::factory());
+  filter.reset(frames.front());
+  const double weight = info.total_mass * 9.81, T = options.qp.release_transition_s;
+  const int feet[2] = {info.findBody("l_foot"), info.findBody("r_foot")};
+  double previous[2] = {std::nan(""), std::nan("")};
+  double worst_rate_ratio = 0.0, largest_drop = 0.0;
+  std::uint32_t status_union = 0;
+  for (const ReferenceFrame& frame : frames) {
+    const FilterOutput& out = filter.step(frame);
+    status_union |= out.status;
+    for (int f = 0; f < 2; ++f) {
+      double force = std::nan(""), start = 0.0;
+      for (int i = 0; i < out.num_contacts; ++i)
+        if (out.contacts[static_cast<std::size_t>(i)].body == feet[f])
+          force = out.contacts[static_cast<std::size_t>(i)].normal_force_n;
+      for (int i = 0; i < filter.links().size(); ++i)
+        if (filter.links()[i].body == feet[f]) start = filter.links()[i].release_start_force_n;
+      if (!std::isnan(force) && !std::isnan(previous[f]) && !(out.status & kStatusImpact)) {
+        const double drop = previous[f] - force;
+        largest_drop = std::max(largest_drop, drop);
+        worst_rate_ratio = std::max(worst_rate_ratio, drop / (std::max(weight, start) / T * dt));
+      }
+      previous[f] = force;  // NaN once released: the next contact starts a new series
+    }
+  }
+  RecordProperty("largest_one_tick_drop_n", std::to_string(largest_drop));
+  EXPECT_LE(worst_rate_ratio, 1.0 + 1e-6) << "largest one-tick drop " << largest_drop << " N";
+  EXPECT_GT(largest_drop, 1.0) << "the sole did unload";
+  EXPECT_EQ(status_union & (kStatusQpFallback | kStatusNonFinite), 0u) << status_union;
 }
 
 }  // namespace

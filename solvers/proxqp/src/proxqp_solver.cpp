@@ -27,8 +27,9 @@ class ProxQpSolver final : public IQpSolver {
     qp_.settings.max_iter = settings.max_iterations;
     qp_.settings.verbose = false;
     qp_.settings.compute_timings = false;
-    qp_.settings.eps_primal_inf = 1e-12;
-    qp_.settings.eps_dual_inf = 1e-12;
+    // Infeasibility tests keep ProxQP's defaults (eps_primal_inf = 1e-4): at 1e-12 an
+    // infeasible QP always ran to the iteration limit (measured: jump clip 1379 µs a tick
+    // against 318 µs); a false certificate is caught by the cold retry below.
     qp_.settings.initial_guess = pq::InitialGuessStatus::EQUALITY_CONSTRAINED_INITIAL_GUESS;
   }
 

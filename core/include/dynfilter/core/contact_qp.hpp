@@ -11,6 +11,7 @@
 ///   subject to A_b v̇ − H_C,bᵀ τ_C = −b_b          (base rows of Eq. 12, nb)
 ///              H_C v̇ = u_C                         (contact acceleration rows, N_C)
 ///              f_z ≥ f_min, f_z ≤ ramp bound      (unilateral; release ramp, per link)
+///              f_z ≥ f_z,prev − rate dt           (no jerk: unloading rate, held links)
 ///              d_kᵀ f_t ≤ μ cos(π/K) f_z, k < K   (inscribed friction pyramid, per link)
 ///              CoP of faces and edges inside the support rectangle (minus a margin)
 ///              |τ_J| ≤ τ_max                      (URDF effort)
@@ -62,7 +63,7 @@ struct ContactQpReport {
   /// Relaxations, tried in this order while the QP fails (each keeps the previous ones):
   /// 1. joint-limit acceleration bounds dropped (a joint at its stop gets the stop's torque);
   bool joint_limits_dropped = false;
-  /// 2. the release ramps' upper force bounds dropped;
+  /// 2. the normal forces' rate bounds dropped (release ramps, unloading rate);
   bool ramps_dropped = false;
   /// 3. every virtual link released (the contacts break): the caller must release them.
   bool contacts_released = false;
@@ -133,6 +134,7 @@ class ContactQp {
   std::vector<LinkBounds> link_bounds_;
   int num_links_ = 0;
   double equality_tolerance_ = 0.0;  // N, from the body weight
+  double weight_n_ = 0.0;            // body weight (N): scales the unloading rate
 };
 
 }  // namespace dynfilter

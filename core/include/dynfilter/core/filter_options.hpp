@@ -89,7 +89,8 @@ struct QpModeOptions {
   double cop_margin_m = 0.0;
   /// When the reference lifts a held contact point this high above its anchor (m), the
   /// link's normal-force bound ramps down to the minimum over release_transition_s, then
-  /// the link is released.
+  /// the link is released. Whatever the reason, a held link's normal force never drops
+  /// faster than max(body weight, ramp start force) / release_transition_s.
   double liftoff_clearance_m = 0.02;
   double release_transition_s = 0.05;
   /// Joint position limits become acceleration bounds that stop the joint at its limit
