@@ -140,6 +140,7 @@ bool DynamicsFilter::setMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q
   q_ = q;
   v_ = v;
   if (nb_ > 0) q_.segment<4>(3).normalize();
+  measured_ = true;
   return true;
 }
 
@@ -218,6 +219,8 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
 
   // Contacts at the filter's state, and the plastic impact of new links.
   model_.setState(q_, v_);
+  if (measured_) links_.reanchor(model_);  // the robot's contact is where it is
+  measured_ = false;
   model_.detectContacts(candidates_);
   out_.max_penetration_m = 0.0;
   for (const ContactCandidate& c : candidates_)

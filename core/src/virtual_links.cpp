@@ -49,6 +49,13 @@ void VirtualLinkSet::clear() {
   num_released_ = 0;
 }
 
+void VirtualLinkSet::reanchor(const IDynamicsModel& model) {
+  for (int i = 0; i < size_; ++i) {
+    VirtualLink& link = links_[static_cast<std::size_t>(i)];
+    link.X_WA = model.bodyPose(link.body) * link.X_BC;
+  }
+}
+
 void VirtualLinkSet::releaseAll() {
   for (int i = 0; i < size_ && num_released_ < static_cast<int>(released_.size()); ++i) {
     const VirtualLink& link = links_[static_cast<std::size_t>(i)];

@@ -75,6 +75,7 @@ class DynamicsFilter {
   int nv_, nb_, nj_, task_body_ = -1;
   double weight_n_ = 0.0;      // body weight (N), scales the Eq. 12 divergence guard
   int degraded_ticks_ = 0;     // consecutive ticks with a degraded solve
+  bool measured_ = false;      // the state of this tick was measured (setMeasuredState)
   Eigen::VectorXd q_, v_;
   ReferenceFrame last_reference_;
   bool has_reference_ = false;

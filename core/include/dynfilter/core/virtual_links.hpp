@@ -70,6 +70,11 @@ class VirtualLinkSet {
   /// Forgets every link and released pair.
   void clear();
 
+  /// Moves every held link's anchor to where its contact frame is at the model's current
+  /// state (zero link error): used when the state is measured on a robot, whose own
+  /// contact physics, not the filter's stabilisation, decides where the contact is.
+  void reanchor(const IDynamicsModel& model);
+
   /// Releases every held link (the contacts broke): the pairs re-engage only when they
   /// penetrate again by reengage_depth_m.
   void releaseAll();
