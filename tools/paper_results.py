@@ -303,6 +303,7 @@ def limit_metrics(t, contacts_csv, model, mu):
     status = t["status"].astype(np.int64)
     m["frames_qp_relaxed"] = int(np.count_nonzero(status & 512))
     m["frames_qp_fallback"] = int(np.count_nonzero(status & 256))
+    m["frames_reseeded"] = int(np.count_nonzero(status & 16))
     return m
 
 
@@ -549,6 +550,7 @@ MODE_ROWS = [
     ("peak_tau_legs_nm", "peak abs(torque), legs (N·m)", "{:.1f}"),
     ("max_base_residual_rel_bw", "max base residual / body weight", "{:.2e}"),
     ("max_penetration_mm", "max penetration (mm)", "{:.2f}"),
+    ("frames_reseeded", "frames re-seeded from the reference (divergence guard)", "{:d}"),
     ("frames_qp_relaxed", "frames answered by a QP relaxation", "{:d}"),
     ("frames_qp_fallback", "frames that fell back to the paper solve", "{:d}"),
     ("mean_tick_us", "mean time per tick (µs)", "{:.1f}"),
@@ -602,7 +604,8 @@ def write_report(out, entries, total_s, bodies_note):
                 f"{fmt(entries[n]['metrics'], key, f)} | {fmt(entries[n]['metrics_qp'], key, f)}"
                 for n in with_qp) + " |")
         L += ["", "A QP relaxation drops, for that tick only and in this order, the joint-limit "
-              "acceleration bounds, the release ramps' force bounds, then the contacts (they "
+              "acceleration bounds, the normal forces' rate bounds (release ramps, unloading rate), "
+              "then the contacts (they "
               "break); contacts, friction, CoP and torque limits hold in every relaxation.", ""]
     for n in names:
         e = entries[n]
