@@ -1,8 +1,5 @@
 // The real processes over real LCM (UDP multicast on loopback): dynfilter, dynfilter-sim
 // and dynfilter-replay run together; a separate subscriber decodes what arrives.
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -22,45 +19,15 @@
 #include "dynfilter/reference_frame_t.hpp"
 #include "dynfilter/robot_state_t.hpp"
 #include "dynfilter/torque_command_t.hpp"
+#include "child_process.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/test_support.hpp"
-
-extern char** environ;
 
 namespace dynfilter {
 namespace {
 
-// A child process with its own LCM URL; killed with SIGTERM when the object goes.
-class Child {
- public:
-  Child(const std::vector<std::string>& args, const std::string& url) {
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    std::vector<std::string> env_strings{"LCM_DEFAULT_URL=" + url};
-    for (char** e = environ; *e; ++e)
-      if (std::string(*e).rfind("LCM_DEFAULT_URL=", 0) != 0) env_strings.emplace_back(*e);
-    std::vector<char*> envp;
-    for (auto& e : env_strings) envp.push_back(e.data());
-    envp.push_back(nullptr);
-    if (posix_spawn(&pid_, argv[0], nullptr, nullptr, argv.data(), envp.data()) != 0) pid_ = -1;
-  }
-  ~Child() { stop(); }
-  int stop() {
-    if (pid_ <= 0) return exit_code_;
-    kill(pid_, SIGTERM);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    pid_ = -1;
-    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    return exit_code_;
-  }
-  bool running() const { return pid_ > 0; }
-
- private:
-  pid_t pid_ = -1;
-  int exit_code_ = -1;
-};
+// A child process with its own LCM URL; SIGTERM when the object goes.
+using processes::Child;
 
 std::string uniqueUrl() {
   // One multicast port per test process so that parallel ctest runs do not mix.

@@ -81,13 +81,22 @@ class Inbox {
       on_frame(ring_[static_cast<std::size_t>(head_)]);
     if (state_fresh_) on_state(state_);
     state_fresh_ = false;
+    // The counts as of this drain: every frame received by now has been handed over
+    // (accepted or rejected by the filter), rejected here or dropped, so that received =
+    // accepted + rejected + dropped holds in the status. Counting later would include
+    // frames still waiting in the ring.
+    drained_received_ = received_;
+    drained_rejected_ = rejected_;
+    drained_dropped_ = dropped_;
+    drained_last_reject_ = last_reject_;
   }
+  /// The counts as of the last drain().
   void counts(long& received, long& rejected, long& dropped, const char*& last_reject) {
     std::lock_guard<std::mutex> lock(mutex_);
-    received = received_;
-    rejected = rejected_;
-    dropped = dropped_;
-    last_reject = last_reject_;
+    received = drained_received_;
+    rejected = drained_rejected_;
+    dropped = drained_dropped_;
+    last_reject = drained_last_reject_;
   }
 
  private:
@@ -100,6 +109,8 @@ class Inbox {
   bool state_fresh_ = false;
   long received_ = 0, rejected_ = 0, dropped_ = 0;
   const char* last_reject_ = nullptr;
+  long drained_received_ = 0, drained_rejected_ = 0, drained_dropped_ = 0;
+  const char* drained_last_reject_ = nullptr;
 };
 
 // Receive-thread handlers: decode into reused objects, validate, hand over.
