@@ -164,6 +164,34 @@ DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
                          std::string(role) + " link " + quoted(link) + " is not defined");
     }
   }
+  // The joints must form a tree. urdfdom accepts a link that is the child of two joints and
+  // joints that close a loop away from the root (a link that is its own parent, or a cycle
+  // of links): those links never reach the root, the tree walked from the root leaves them
+  // out, and urdfdom's model of them leaks. Both are reported here, before urdfdom.
+  std::map<std::string, const tinyxml2::XMLElement*> joint_of_child;
+  for (auto* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
+    const char* child = e->FirstChildElement("child")->Attribute("link");
+    const auto [it, inserted] = joint_of_child.emplace(child, e);
+    if (!inserted)
+      throw ModelError(source, e->GetLineNum(), "joint " + quoted(e->Attribute("name")),
+                       "child link " + quoted(child) + " already has the parent joint " +
+                           quoted(it->second->Attribute("name")) + " (line " +
+                           std::to_string(it->second->GetLineNum()) +
+                           "; the joints must form a tree)");
+  }
+  for (const std::string& start : index.link_names) {
+    std::string link = start;
+    for (std::size_t steps = 0;; ++steps) {
+      const auto it = joint_of_child.find(link);
+      if (it == joint_of_child.end()) break;  // reached a root
+      if (steps == joint_of_child.size())
+        throw ModelError(source, it->second->GetLineNum(),
+                         "joint " + quoted(it->second->Attribute("name")),
+                         "closes a loop: link " + quoted(link.c_str()) +
+                             " is its own ancestor (the joints must form a tree)");
+      link = it->second->FirstChildElement("parent")->Attribute("link");
+    }
+  }
   if (index.link_names.empty())
     throw ModelError(source, robot->GetLineNum(), "<robot>", "no <link> elements");
   return index;
@@ -187,6 +215,11 @@ RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentI
   std::map<std::string, int> link_index;
   for (std::size_t i = 0; i < index.link_names.size(); ++i) {
     const auto link = model.getLink(index.link_names[i]);
+    // tinyxml2 (the index) and urdfdom's TinyXML may read unusual bytes in a name apart.
+    if (!link)
+      throw ModelError(source, index.link_lines[i], "link " + quoted(index.link_names[i].c_str()),
+                       "urdfdom reads this link's name differently "
+                       "(a carriage return or unusual bytes in it)");
     LinkDesc desc;
     desc.name = index.link_names[i];
     desc.line = index.link_lines[i];
@@ -233,6 +266,11 @@ RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentI
 
   for (std::size_t i = 0; i < index.joint_names.size(); ++i) {
     const auto joint = model.getJoint(index.joint_names[i]);
+    if (!joint)
+      throw ModelError(source, index.joint_lines[i],
+                       "joint " + quoted(index.joint_names[i].c_str()),
+                       "urdfdom reads this joint's name differently "
+                       "(a carriage return or unusual bytes in it)");
     JointDesc desc;
     desc.name = index.joint_names[i];
     desc.line = index.joint_lines[i];

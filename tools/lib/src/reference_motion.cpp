@@ -128,6 +128,7 @@ ReferenceMotion readReferenceMotion(const std::string& path, const ModelInfo& in
   std::string line;
   int line_no = 0;
   int last_frame_line = 0;
+  std::vector<int> frame_lines;            // per frame
 
   while (std::getline(in, line)) {
     ++line_no;
@@ -244,6 +245,7 @@ ReferenceMotion readReferenceMotion(const std::string& path, const ModelInfo& in
     }
     motion.frames.push_back(std::move(frame));
     last_frame_line = line_no;
+    frame_lines.push_back(line_no);
   }
   if (in.bad()) throw InputError(path, 0, "read error");
   if (header_line == 0)
@@ -253,9 +255,17 @@ ReferenceMotion readReferenceMotion(const std::string& path, const ModelInfo& in
                      "a reference motion needs at least 2 frames, found " +
                          std::to_string(motion.frames.size()));
 
-  if (!motion.had_velocities || !motion.had_accelerations)
+  if (!motion.had_velocities || !motion.had_accelerations) {
     estimateDerivatives(motion.frames, info.floating_base, options.smoothing_window,
                         !motion.had_velocities, !motion.had_accelerations);
+    // Finite numbers can still be too close together (a time step whose square
+    // underflows) or too far apart (a difference that overflows) for the fit.
+    for (std::size_t k = 0; k < motion.frames.size(); ++k)
+      if (!motion.frames[k].v.allFinite() || !motion.frames[k].vdot.allFinite())
+        throw InputError(path, frame_lines[k],
+                         "the estimated velocity or acceleration of this frame is not finite "
+                         "(time steps or values too small or too large for the fit)");
+  }
   return motion;
 }
 

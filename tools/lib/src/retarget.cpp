@@ -42,7 +42,8 @@ class MappingParser {
     if (!node.IsMap()) fail(node.Mark(), what + ": expected a map");
     std::set<std::string> seen;
     for (const auto& item : node) {
-      const std::string key = item.first.as<std::string>();
+      if (!item.first.IsScalar()) fail(item.first.Mark(), what + ": keys must be plain names");
+      const std::string key = item.first.Scalar();
       if (!keys.count(key)) fail(item.first.Mark(), what + ": unknown key \"" + key + "\"");
       if (!seen.insert(key).second)
         fail(item.first.Mark(), what + ": repeated key \"" + key + "\"");
