@@ -18,6 +18,7 @@ packages=(
   liblcm-dev liblcm-bin libglib2.0-dev default-jdk-headless python3-venv
   libgtest-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libyaml-cpp-dev
+  clang libclang-rt-14-dev   # fuzz/: clang 14 with libFuzzer and the sanitizer runtimes
 )
 missing=()
 for p in "${packages[@]}"; do

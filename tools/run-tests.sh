@@ -1,8 +1,53 @@
 #!/usr/bin/env bash
-# One command on a fresh Debian 12: install dependencies, build, run the whole test suite.
+# One command on a fresh Debian 12: install dependencies, build, run the whole test suite,
+# then the sanitizer suite and a short fuzz run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/install-deps.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DDYNFILTER_WERROR=ON
 cmake --build build
 ctest --test-dir build --output-on-failure -j"$(nproc)"
+
+# --- Sanitizer suite and short fuzz run (README "Fuzzing and sanitizers") --------------
+# The unit tests again, built with gcc's AddressSanitizer + UndefinedBehaviorSanitizer in
+# build-asan (every UB report fatal; -O1 keeps them fast), without the tests that are slow
+# or measure real time (real-time processes, paper results, plots, packaging, Java/Python).
+# Then every fuzz target for a few seconds (fuzz/run.sh, clang + libFuzzer, build-fuzz).
+# DYNFILTER_SANITIZERS=0 skips the sanitizer suite, DYNFILTER_FUZZ_SECONDS=0 the fuzz run.
+if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
+  # vptr and alignment stay recoverable only so that fuzz/sanitizers/ubsan.supp can silence
+  # lcm-cpp's untyped-subscription false positive; halt_on_error keeps every other report
+  # fatal. EIGEN_MALLOC_ALREADY_ALIGNED=1: under ASan, Eigen would otherwise switch to its
+  # own aligned malloc/free (it does when __SANITIZE_ADDRESS__ is defined) while Debian's
+  # DART, built without ASan, uses plain malloc/free for the same Eigen objects: each side
+  # would free the other's blocks wrongly (ASan: heap-buffer-overflow in
+  # Eigen::internal::handmade_aligned_free).
+  export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1"
+  export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$PWD/fuzz/sanitizers/ubsan.supp"
+  # No -Werror here: gcc's flow warnings are noisy under the sanitizers (e.g.
+  # -Wmaybe-uninitialized inside <regex>); the Release build above checks the warnings.
+  cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
+    -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fsanitize-recover=vptr,alignment -fno-omit-frame-pointer -DEIGEN_MALLOC_ALREADY_ALIGNED=1" \
+    -DDYNFILTER_BUILD_BENCHMARKS=OFF -DDYNFILTER_LCM_VENV="$PWD/build/venv"
+  # Every test executable and fuzz replay driver except the ones that cannot run under ASan:
+  # test_allocation and test_lcm link tests/support/allocation_counter.cpp, which interposes
+  # malloc with glibc's __libc_malloc behind ASan's back (the binary crashes at start), and
+  # test_processes (real-time rates; its tests are excluded anyway).
+  asan_targets="$(ninja -C build-asan -t targets all |
+    sed -n 's/^\(test_[a-z0-9_]*\|fuzz_replay_[a-z0-9_]*\): phony$/\1/p' |
+    grep -vxE 'test_allocation|test_lcm|test_processes')"
+  cmake --build build-asan --target $asan_targets
+  # Excluded besides the slow and real-time tests: the QP-mode tests, because ProxQP 0.7.2
+  # (the proxsuite wheel, solvers/proxqp) reads uninitialised bools of its workspace in
+  # dense::global_dual_residual (UBSan: "load of value 190, which is not a valid value for
+  # type 'bool'", fuzz/README.md): re-include them once that is fixed.
+  ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E "$(printf '%s|' \
+    '_NOT_BUILT$' '^LcmProcesses\.' '^soak' '^paper_results' '^plot_lcm_log$' '^exported_package' \
+    '^lcm_python_types$' '^lcm_spy_' '^human_figure_is_regenerated' '^core_include_guard' \
+    '^ProxQpAdapter\.' '^QpMode' '^Modes/ClosedLoopOnOde\..*/qp( |$)' | sed 's/|$//')"
+  unset ASAN_OPTIONS UBSAN_OPTIONS
+fi
+if [ "${DYNFILTER_FUZZ_SECONDS:-20}" != 0 ]; then
+  FUZZ_JOBS="$(nproc)" fuzz/run.sh "${DYNFILTER_FUZZ_SECONDS:-20}"
+fi
