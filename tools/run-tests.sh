@@ -30,22 +30,22 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
     -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fsanitize-recover=vptr,alignment -fno-omit-frame-pointer -DEIGEN_MALLOC_ALREADY_ALIGNED=1" \
     -DDYNFILTER_BUILD_BENCHMARKS=OFF -DDYNFILTER_LCM_VENV="$PWD/build/venv"
-  # Every test executable and fuzz replay driver except the ones that cannot run under ASan:
-  # test_allocation and test_lcm link tests/support/allocation_counter.cpp, which interposes
-  # malloc with glibc's __libc_malloc behind ASan's back (the binary crashes at start), and
-  # test_processes (real-time rates; its tests are excluded anyway).
+  # Every test executable and fuzz replay driver but test_processes (real-time rates; its
+  # tests are excluded anyway) and test_lcm: under ASan its memq tests SEGV inside lcm-cpp
+  # 1.3.1's untyped-subscription dispatch (the handler's `this` reads as 0xbebebe...,
+  # ASan's fill of fresh heap; open finding, fuzz/README.md); the LCM readers are covered
+  # here by fuzz_regression_lcm. The allocation tests skip here: ASan owns malloc, so
+  # tests/support/allocation_counter.cpp counts nothing in this build.
   asan_targets="$(ninja -C build-asan -t targets all |
     sed -n 's/^\(test_[a-z0-9_]*\|fuzz_replay_[a-z0-9_]*\): phony$/\1/p' |
-    grep -vxE 'test_allocation|test_lcm|test_processes')"
+    grep -vxE 'test_lcm|test_processes')"
   cmake --build build-asan --target $asan_targets
-  # Excluded besides the slow and real-time tests: the QP-mode tests, because ProxQP 0.7.2
-  # (the proxsuite wheel, solvers/proxqp) reads uninitialised bools of its workspace in
-  # dense::global_dual_residual (UBSan: "load of value 190, which is not a valid value for
-  # type 'bool'", fuzz/README.md): re-include them once that is fixed.
+  # (The QP-mode tests run here too: ProxQP 0.7.2 read uninitialised bools of its workspace,
+  # which UBSan caught; solvers/proxqp now initialises them.)
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E "$(printf '%s|' \
     '_NOT_BUILT$' '^LcmProcesses\.' '^soak' '^paper_results' '^plot_lcm_log$' '^exported_package' \
     '^lcm_python_types$' '^lcm_spy_' '^human_figure_is_regenerated' '^core_include_guard' \
-    '^ProxQpAdapter\.' '^QpMode' '^Modes/ClosedLoopOnOde\..*/qp( |$)' | sed 's/|$//')"
+    | sed 's/|$//')"
   unset ASAN_OPTIONS UBSAN_OPTIONS
 fi
 if [ "${DYNFILTER_FUZZ_SECONDS:-20}" != 0 ]; then

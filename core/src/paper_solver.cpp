@@ -37,7 +37,7 @@ void choleskySolve(const Eigen::Ref<const Eigen::MatrixXd>& S, Vec&& x) {
 }  // namespace
 
 PaperSolver::PaperSolver(int nv, int nb, int max_rows, const PaperSolverOptions& options)
-    : nv_(nv), nb_(nb), max_rows_(max_rows), options_(options) {
+    : nv_(nv), nb_(nb), options_(options) {
   const int m = nb + max_rows + kMaxTaskRows;
   Cv_.setZero(m, nv);
   G_.setZero(m, m);

@@ -113,6 +113,7 @@ void expectNoCoreAllocations(long ticks) {
 }
 
 TEST(Allocation, FilterStepAllocatesNothingInTheCore) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
   auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const auto frames = test::simulateStandingSway(*dart, 0.4, 1e-3);
   MeasuredModel model(*dart);
@@ -138,6 +139,7 @@ TEST(Allocation, FilterStepAllocatesNothingInTheCore) {
 }
 
 TEST(Allocation, QpModeSteadyStateTickAllocatesNothingInTheCore) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
   // The QP mode on the standing figure (two face links, the 12-slot size class). ProxQP is
   // not a backend: what it allocates inside solve() counts as the core's.
   auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
@@ -162,6 +164,7 @@ TEST(Allocation, QpModeSteadyStateTickAllocatesNothingInTheCore) {
 }
 
 TEST(Allocation, CountingWorks) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
   // The counter must see an allocation, or the test above proves nothing.
   resetCounts();
   g_counting = true;
@@ -185,6 +188,7 @@ TEST(Allocation, CountingWorks) {
 }
 
 TEST(Allocation, SimulatorStepAllocatesNothingInTheCore) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
   auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   MeasuredModel model(*dart);
   DynamicsSimulator sim(model, ContactOptions{}, 1e-3);
@@ -208,6 +212,7 @@ namespace dynfilter {
 namespace {
 
 TEST(Allocation, RealtimeTickAndReferenceIntakeAllocateNothing) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
   auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const auto frames = test::simulateStandingSway(*dart, 0.5, 1e-3);
   MeasuredModel model(*dart);

@@ -25,6 +25,7 @@ void resetCounts() {
 }
 }  // namespace dynfilter::test::allocations
 
+#if !defined(__SANITIZE_ADDRESS__)  // ASan owns malloc: nothing is interposed there
 using dynfilter::test::allocations::countAllocation;
 using dynfilter::test::allocations::g_core_malloc;
 using dynfilter::test::allocations::g_core_new;
@@ -74,4 +75,4 @@ void* operator new(std::size_t size) {
 }
 void operator delete(void* p) noexcept { __libc_free(p); }
 void operator delete(void* p, std::size_t) noexcept { __libc_free(p); }
-
+#endif  // !__SANITIZE_ADDRESS__

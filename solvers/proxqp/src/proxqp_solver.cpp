@@ -22,6 +22,11 @@ class ProxQpSolver final : public IQpSolver {
         H_(n, n),
         A_(n_eq, n),
         C_(n_in, n) {
+    // ProxQP 0.7.2 leaves these workspace flags uninitialised and its duality-gap check
+    // reads them before the first solve sets them (UBSan: "load of value 190 ... bool").
+    qp_.work.active_set_up.setConstant(false);
+    qp_.work.active_set_low.setConstant(false);
+    qp_.work.active_inequalities.setConstant(false);
     qp_.settings.eps_abs = settings.eps_abs;
     qp_.settings.eps_rel = 0.0;
     qp_.settings.max_iter = settings.max_iterations;

@@ -64,7 +64,7 @@ class PaperSolver {
 
  private:
   static constexpr int kMaxTaskRows = 6;
-  int nv_, nb_, max_rows_;
+  int nv_, nb_;
   PaperSolverOptions options_;
   Eigen::MatrixXd Cv_;     // (nb + N_C) × nv
   Eigen::MatrixXd G_;      // m × m, factorised in place
