@@ -1,6 +1,10 @@
 #include "process_support.hpp"
 
 #include <csignal>
+#include <string>
+#include <stdexcept>
+#include <cstring>
+#include <cerrno>
 #include <cmath>
 
 #include <pthread.h>
@@ -56,6 +60,15 @@ long Ticker::wait() {
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next_, nullptr) != 0 && !g_stop) {
   }
   return missed;
+}
+
+void pinProcessToCpu(int cpu) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (cpu < 0 || cpu >= CPU_SETSIZE) throw std::runtime_error("--cpu " + std::to_string(cpu) + ": no such CPU");
+  CPU_SET(cpu, &set);
+  if (sched_setaffinity(0, sizeof set, &set) != 0)
+    throw std::runtime_error("--cpu " + std::to_string(cpu) + ": " + std::strerror(errno));
 }
 
 const char* tryRealtimeScheduling(int priority) {

@@ -32,4 +32,8 @@ class Ticker {
 /// locked memory when permitted; returns a note.
 const char* tryRealtimeScheduling(int priority = 50);
 
+/// Restricts the whole process (the calling thread and every thread started after) to CPU
+/// @p cpu. Throws std::runtime_error naming the CPU when that is not possible.
+void pinProcessToCpu(int cpu);
+
 }  // namespace dynfilter::processes

@@ -94,12 +94,16 @@ int main(int argc, char** argv) {
   app.add_flag("--harness", harness,
                "the robot hangs on a test stand: root link welded, no ground (joint-level "
                "bring-up; the filter still plans the free-floating robot)");
+  int cpu = -1;
+  app.add_option("--cpu", cpu, "run the whole process on this CPU only (e.g. one of its own: "
+                 "BENCHMARKS.md, real-time loop)");
   app.add_option("--lcm-url", url, "LCM URL (default: $LCM_DEFAULT_URL)");
   app.add_option("--command-channel", command_channel);
   app.add_option("--state-channel", state_channel);
   CLI11_PARSE(app, argc, argv);
 
   try {
+    if (cpu >= 0) processes::pinProcessToCpu(cpu);  // before any thread (LCM's too) starts
     ModelOptions model_options;
     if (harness) {
       model_options.floating_base = false;
