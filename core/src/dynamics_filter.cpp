@@ -244,23 +244,7 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   desiredAcceleration(ref);
 
   const Clock::time_point t_solve = Clock::now();
-  if (contact_qp_) {
-    status |= solveQp(H_C, u_C, tau_C);
-  } else {
-  // Eq. 21–23.
-  const bool task_rows = task_body_ >= 0 && options_.task.as_constraint_rows;
-  std::uint32_t solve_status = kStatusRankDeficient;
-  if (task_rows)
-    solve_status = solver_.solve(A_, b_, H_C, u_C, J_P_, task_rhs_, vdot_desired_, vdot_solved_,
-                                 tau_C, tau_J_solved_);
-  // Task rows that depend on the physics rows (e.g. the chest cannot rise while the knees
-  // are straight) are dropped for the tick: Eq. 12 itself must hold exactly.
-  if (solve_status & kStatusRankDeficient) {
-    solve_status = task_rows ? std::uint32_t{kStatusRankDeficient} : std::uint32_t{kStatusOk};
-    solve_status |= solver_.solve(A_, b_, H_C, u_C, vdot_desired_, vdot_solved_, tau_C, tau_J_solved_);
-  }
-  status |= solve_status;
-  }
+  status |= contact_qp_ ? solveQp(H_C, u_C, tau_C) : solvePaper(H_C, u_C, tau_C);
   out_.solve_time_s = secondsSince(t_solve);
 
   // The rows that hold: the QP mode may have released every link (contacts that could not
@@ -333,6 +317,24 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   return out_;
 }
 
+std::uint32_t DynamicsFilter::solvePaper(Eigen::Ref<Eigen::MatrixXd> H_C,
+                                         Eigen::Ref<Eigen::VectorXd> u_C,
+                                         Eigen::Ref<Eigen::VectorXd> tau_C) {
+  // Eq. 21–23.
+  const bool task_rows = task_body_ >= 0 && options_.task.as_constraint_rows;
+  std::uint32_t solve_status = kStatusRankDeficient;
+  if (task_rows)
+    solve_status = solver_.solve(A_, b_, H_C, u_C, J_P_, task_rhs_, vdot_desired_, vdot_solved_,
+                                 tau_C, tau_J_solved_);
+  // Task rows that depend on the physics rows (e.g. the chest cannot rise while the knees
+  // are straight) are dropped for the tick: Eq. 12 itself must hold exactly.
+  if (solve_status & kStatusRankDeficient) {
+    solve_status = task_rows ? std::uint32_t{kStatusRankDeficient} : std::uint32_t{kStatusOk};
+    solve_status |= solver_.solve(A_, b_, H_C, u_C, vdot_desired_, vdot_solved_, tau_C, tau_J_solved_);
+  }
+  return solve_status;
+}
+
 std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
                                       Eigen::Ref<Eigen::VectorXd> u_C,
                                       Eigen::Ref<Eigen::VectorXd> tau_C) {
@@ -359,7 +361,7 @@ std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
   ++out_.counters.qp_fallbacks;
 
   std::uint32_t status = kStatusQpFallback;
-  status |= solver_.solve(A_, b_, H_C, u_C, vdot_desired_, vdot_solved_, tau_C, tau_J_solved_);
+  status |= solvePaper(H_C, u_C, tau_C);
   const Eigen::VectorXd& tau_max = model_.info().tau_max;
   bool clamped = false;
   for (int j = 0; j < nj_; ++j) {

@@ -66,6 +66,9 @@ class DynamicsFilter {
   bool referenceValid(const ReferenceFrame& reference) const;
   void desiredAcceleration(const ReferenceFrame& reference);
   void reseed(const ReferenceFrame& reference);
+  // Eq. 21–23 (with the task rows of Eq. 16 when configured); returns status bits.
+  std::uint32_t solvePaper(Eigen::Ref<Eigen::MatrixXd> H_C, Eigen::Ref<Eigen::VectorXd> u_C,
+                           Eigen::Ref<Eigen::VectorXd> tau_C);
   // QP mode: solve, or fall back to the paper solve with clamped torques.
   std::uint32_t solveQp(Eigen::Ref<Eigen::MatrixXd> H_C, Eigen::Ref<Eigen::VectorXd> u_C,
                         Eigen::Ref<Eigen::VectorXd> tau_C);
