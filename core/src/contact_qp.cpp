@@ -277,6 +277,13 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   if (signature != sc.signature) sc.solver->resetWarmStart();
   sc.signature = signature;
   report.info = timedSolve(sc, report);
+  // The check is the criterion: an iterate stopped by the iteration limit that satisfies
+  // every family to tolerance is as good as a converged one.
+  auto acceptable = [&]() {
+    return (report.info.status == QpSolveStatus::kSolved ||
+            report.info.status == QpSolveStatus::kMaxIterations) &&
+           report.violated == kQpFamilyNone;
+  };
   auto extract = [&]() {
     vdot = sc.x.head(nv_);
     tau_C = sc.x.segment(nv_, nc);
@@ -284,34 +291,35 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     tau_J.noalias() += M * sc.x.head(nv_ + nc);
     if (!sc.x.allFinite()) report.info.status = QpSolveStatus::kNotFinite;
     report.violated = check(A, b, H_C, u_C, vdot, tau_C, tau_J);
-    // The check is the criterion: an iterate stopped by the iteration limit that satisfies
-    // every family to tolerance is as good as a converged one.
-    return (report.info.status == QpSolveStatus::kSolved ||
-            report.info.status == QpSolveStatus::kMaxIterations) &&
-           report.violated == kQpFamilyNone;
+    return acceptable();
+  };
+  // A relaxation is solved cold (its problem differs), and the next tick starts cold too.
+  auto solveRelaxedCold = [&]() {
+    const int earlier_iterations = report.info.iterations;
+    sc.solver->resetWarmStart();
+    report.info = timedSolve(sc, report);
+    report.info.iterations += earlier_iterations;
+    sc.solver->resetWarmStart();
   };
   report.ok = extract();
+  report.violated_first = report.violated;
   if (!report.ok && options_.enforce_joint_limits) {
     // Measured on the CMU clips: the joint-limit bounds are what makes the QP infeasible
     // (a joint at its limit in stance, with torque limits and contacts hard). They are
     // dropped for the tick — physically, a joint at its stop gets its torque from the stop.
-    report.violated_first = report.violated;
     report.joint_limits_dropped = true;
     qp.x_lower.segment(nb_, nj_).setConstant(-kQpInfinity);
     qp.x_upper.segment(nb_, nj_).setConstant(kQpInfinity);
     accel_lo_.setConstant(-kQpInfinity);
     accel_hi_.setConstant(kQpInfinity);
-    const int first_iterations = report.info.iterations;
-    sc.solver->resetWarmStart();
-    report.info = timedSolve(sc, report);
-    report.info.iterations += first_iterations;
-    sc.solver->resetWarmStart();
+    solveRelaxedCold();
     report.ok = extract();
   }
   bool rate_bounded = false;
-  for (int i = 0; i < num_links; ++i)
-    rate_bounded = rate_bounded || link_bounds_[static_cast<std::size_t>(i)].f_min > options_.min_normal_force_n ||
-                   std::isfinite(link_bounds_[static_cast<std::size_t>(i)].f_max);
+  for (int i = 0; i < num_links; ++i) {
+    const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+    rate_bounded = rate_bounded || lb.f_min > options_.min_normal_force_n || std::isfinite(lb.f_max);
+  }
   if (!report.ok && rate_bounded) {
     // Still infeasible with the normal forces' rate bounds (release ramps, unloading rate):
     // the remaining support cannot take the load that fast (e.g. both feet of a jump).
@@ -324,11 +332,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       qp.x_upper[nv_ + lb.row + 2] = kQpInfinity;
       qp.x_lower[nv_ + lb.row + 2] = lb.f_min;
     }
-    const int earlier_iterations = report.info.iterations;
-    sc.solver->resetWarmStart();
-    report.info = timedSolve(sc, report);
-    report.info.iterations += earlier_iterations;
-    sc.solver->resetWarmStart();
+    solveRelaxedCold();
     report.ok = extract();
   }
   if (!report.ok && nc > 0) {
@@ -347,20 +351,14 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     qp.x_lower.tail(cap).setConstant(-kQpInfinity);
     qp.x_upper.tail(cap).setConstant(kQpInfinity);
     num_links_ = 0;
-    const int earlier_iterations = report.info.iterations;
-    sc.solver->resetWarmStart();
-    report.info = timedSolve(sc, report);
-    report.info.iterations += earlier_iterations;
-    sc.solver->resetWarmStart();
+    solveRelaxedCold();
     vdot = sc.x.head(nv_);
     tau_C.setZero();
     tau_J = b_J;
     tau_J.noalias() += A.bottomRows(nj_) * vdot;
     if (!sc.x.allFinite()) report.info.status = QpSolveStatus::kNotFinite;
     report.violated = check(A, b, H_C.topRows(0), u_C.head(0), vdot, tau_C.head(0), tau_J);
-    report.ok = (report.info.status == QpSolveStatus::kSolved ||
-                 report.info.status == QpSolveStatus::kMaxIterations) &&
-                report.violated == kQpFamilyNone;
+    report.ok = acceptable();
   }
   return report;
 }

@@ -359,7 +359,6 @@ std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
   // Fallback: the paper's solve, torques clamped to their limits, then Eq. 14 with the
   // clamped torques so that Eq. 12 still holds for what is published.
   ++out_.counters.qp_fallbacks;
-
   std::uint32_t status = kStatusQpFallback;
   status |= solvePaper(H_C, u_C, tau_C);
   const Eigen::VectorXd& tau_max = model_.info().tau_max;
