@@ -17,6 +17,6 @@ if(NOT rc EQUAL 0)
 endif()
 execute_process(COMMAND ${CONSUMER_BUILD}/consumer ${MODEL} RESULT_VARIABLE rc
                 OUTPUT_VARIABLE out)
-if(NOT rc EQUAL 0 OR NOT out MATCHES "nv=1")
+if(NOT rc EQUAL 0 OR NOT out MATCHES "nv=1 ode_nv=1 qp=1")
   message(FATAL_ERROR "consumer run failed (${rc}): ${out}")
 endif()

@@ -1,0 +1,27 @@
+# Fails when a library folder includes a dynfilter header of a layer that is not below it:
+#   core ← solvers, backends ← io, realtime ← lcm ← tools, python
+# (lcm may include the generated message types, dynfilter/<type>_t.hpp). Run by the
+# dynfilter_core_include_guard target on every build; SOURCE_DIR is the project root.
+set(layers core solvers backends io realtime lcm)
+set(allowed_core     "core")
+set(allowed_solvers  "core|proxqp")
+set(allowed_backends "core|urdf|dart|ode|backends")
+set(allowed_io       "core|io")
+set(allowed_realtime "core|realtime")
+set(allowed_lcm      "core|lcm|[a-z_]+_t\\.hpp")
+set(violations "")
+foreach(layer IN LISTS layers)
+  file(GLOB_RECURSE files "${SOURCE_DIR}/${layer}/*.hpp" "${SOURCE_DIR}/${layer}/*.cpp")
+  foreach(f IN LISTS files)
+    file(STRINGS "${f}" lines REGEX "^[ \t]*#[ \t]*include[ \t]*[<\"]dynfilter/")
+    foreach(line IN LISTS lines)
+      string(REGEX MATCH "[<\"]dynfilter/([^>\"]+)[>\"]" _m "${line}")
+      if(NOT CMAKE_MATCH_1 MATCHES "^(${allowed_${layer}})(/|$)")
+        string(APPEND violations "\n  ${layer}: ${f}: ${line}")
+      endif()
+    endforeach()
+  endforeach()
+endforeach()
+if(violations)
+  message(FATAL_ERROR "a library includes a layer above it (README, \"Layout\"):${violations}")
+endif()
