@@ -270,8 +270,18 @@ TEST(UrdfLoader, MeshErrorsNameTheFileAndTheLine) {
   expectMeshError(withMesh("meshes/missing.stl", ""), "missing.stl\" not found", {});
   expectMeshError(withMesh("package://no_such_package/sole.stl", ""),
                   "package \"no_such_package\"", {{base}, {}});
-  expectMeshError(withMesh("package://dynfilter_test_meshes/meshes/box_sole.stl", " scale=\"1 -1 1\""),
-                  "mirrors", {{base}, {}});
+  expectMeshError(withMesh("package://dynfilter_test_meshes/meshes/box_sole.stl", " scale=\"1 0 1\""),
+                  "non-zero", {{base}, {}});
+  // A mirrored scale is baked into the hull (outward planes kept), never handed to DART.
+  const RobotDescription mirrored = loadUrdfString(
+      withMesh("package:///dynfilter_test_meshes/meshes/frustum_sole.obj", " scale=\"1 1 -1\""),
+      "arm.urdf", {{base}, {}});
+  const auto& flipped = mirrored.links[2].collisions[0].hull;
+  for (const auto& v : flipped.vertices_S)
+    for (const auto& p : flipped.planes_S) EXPECT_LE(p.head<3>().dot(v) - p[3], 1e-12);
+  double top = -1.0;
+  for (const auto& v : flipped.vertices_S) top = std::max(top, v.z());
+  EXPECT_NEAR(top, 0.01, 1e-8);  // the wide face (z = −0.01) is now on top
   // Relative and file:// paths resolve; the scale is applied.
   const RobotDescription relative = loadUrdfString(
       withMesh("dynfilter_test_meshes/meshes/box_sole.stl", " scale=\"2 1 0.5\""), "arm.urdf", {}, base);

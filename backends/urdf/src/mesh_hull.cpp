@@ -58,7 +58,8 @@ std::string resolveMeshUri(const std::string& uri, const std::string& base_direc
   const std::string kPackage = "package://";
   const std::string kFile = "file://";
   if (uri.rfind(kPackage, 0) == 0) {
-    const std::string rest = uri.substr(kPackage.size());
+    std::string rest = uri.substr(kPackage.size());
+    rest.erase(0, rest.find_first_not_of('/'));  // "package:///name/..." occurs in the wild
     const std::size_t slash = rest.find('/');
     if (slash == std::string::npos || slash == 0)
       throw std::runtime_error("malformed package URI \"" + uri + "\"");

@@ -92,8 +92,12 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
     if (in.mass_kg < 0.0)
       throw ModelError(robot.source, link.line, label, "negative mass");
     if (!(in.mass_kg > 0.0)) continue;  // massless: its inertia is not used
-    // A body with mass needs a positive-definite rotational inertia (ODE's bodies and
-    // DART's articulated inertias assume one).
+    // A link with mass on a moving joint (or a floating root) needs a positive-definite
+    // rotational inertia (ODE's bodies assume one). Links welded by fixed joints (sensor
+    // and tool frames) are lumped into their carrier and may be point masses.
+    const int pj = link.parent_joint;
+    const bool carrier = pj < 0 ? floating_base : robot.joints[static_cast<std::size_t>(pj)].moving();
+    if (!carrier) continue;
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(in.I_Com_L);
     const Eigen::Vector3d m = eig.eigenvalues();  // ascending
     if (!(m[0] > 0.0))

@@ -282,10 +282,13 @@ RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentI
           const auto& mesh = static_cast<const ::urdf::Mesh&>(*collision->geometry);
           const std::string label = "link " + quoted(desc.name.c_str()) + " <mesh>";
           const Eigen::Vector3d scale(mesh.scale.x, mesh.scale.y, mesh.scale.z);
-          if (!scale.allFinite() || !(scale.minCoeff() > 0.0))
+          // A mirrored scale (e.g. "1 -1 1", common for left/right parts) is fine: it is
+          // applied to the vertices before the hull, so no engine ever sees it (DART
+          // aborts on a mirrored MeshShape scale).
+          if (!scale.allFinite() || !(scale.cwiseAbs().minCoeff() > 0.0))
             throw ModelError(source, line, label,
-                             "mesh scale must be finite and > 0 in every axis (a zero scale "
-                             "is flat, a negative one mirrors the mesh)");
+                             "mesh scale must be finite and non-zero in every axis (a zero "
+                             "scale flattens the mesh)");
           shape.kind = ShapeKind::kConvexHull;
           try {
             shape.mesh_path = resolveMeshUri(mesh.filename, base_directory, options.package_paths);
