@@ -12,7 +12,7 @@ export DEBIAN_FRONTEND=noninteractive
 packages=(
   build-essential cmake ninja-build pkg-config python3 python3-numpy
   libeigen3-dev
-  libdart-dev libdart-collision-bullet-dev libbullet-dev
+  libdart-dev libdart-collision-bullet-dev libbullet-dev libassimp-dev
   libode-dev
   liburdfdom-dev liburdfdom-headers-dev libconsole-bridge-dev libtinyxml2-dev
   liblcm-dev liblcm-bin libglib2.0-dev default-jdk-headless python3-venv

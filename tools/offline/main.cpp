@@ -20,6 +20,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "model_cli.hpp"
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/backends/make_model.hpp"
@@ -112,6 +113,8 @@ int main(int argc, char** argv) {
   app.add_option("reference", reference_path, "reference motion CSV (see README)")->required();
   app.add_option("-o,--output", output_path, "filtered motion CSV to write")->required();
   app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
+  dynfilter::tools::ModelCli model_cli;
+  dynfilter::tools::addModelOptions(app, model_cli);
   app.add_option("-c,--config", config_path, "YAML configuration (tools/config/default.yaml)");
   app.add_option("--backend", backend, "dynamics backend: dart or ode")
       ->check(CLI::IsMember(availableBackends()));
@@ -135,7 +138,7 @@ int main(int argc, char** argv) {
 
   try {
     io::FilterConfig config = config_path.empty() ? io::FilterConfig{} : io::loadFilterConfig(config_path);
-    const auto robot = urdf::loadUrdfFile(model_path);
+    const auto robot = dynfilter::tools::loadRobot(model_path, model_cli);
     for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     // The motion is read first (any model of the robot knows its coordinates): a slope
     // given on the command line passes under the motion's first base position.

@@ -22,6 +22,7 @@
 #include "dynfilter/io/config.hpp"
 #include "dynfilter/lcm/messages.hpp"
 #include "dynfilter/realtime/realtime_filter.hpp"
+#include "model_cli.hpp"
 #include "process_support.hpp"
 
 namespace {
@@ -149,6 +150,8 @@ int main(int argc, char** argv) {
   double rate_hz = 1000.0, duration_s = 0.0;
   realtime::RealtimeOptions rt_options;
   app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
+  dynfilter::tools::ModelCli model_cli;
+  dynfilter::tools::addModelOptions(app, model_cli);
   app.add_option("--backend", backend, "dart or ode")->check(CLI::IsMember(availableBackends()));
   app.add_option("-c,--config", config_path, "YAML configuration");
   std::string mode;
@@ -189,7 +192,7 @@ int main(int argc, char** argv) {
       model_options.floating_base = false;
       model_options.environment.has_ground = false;
     }
-    auto model = loadModel(backend, model_path, model_options);
+    auto model = makeModel(backend, dynfilter::tools::loadRobot(model_path, model_cli), model_options);
     const ModelInfo& info = model->info();
 
     ReferenceFrame hold(info.nq, info.nv);
