@@ -19,6 +19,26 @@ void ikTargetError(const IDynamicsModel& model, const IkTarget& target, double& 
   orientation_rad = logSO3(target.R_WB * X.linear().transpose()).norm();
 }
 
+namespace {
+// The objective at the model's current state (q given for the posture term).
+double ikCost(const IDynamicsModel& model, const std::vector<IkTarget>& targets,
+              const Eigen::VectorXd& q, const Eigen::VectorXd& q_posture,
+              const Eigen::VectorXd& posture_weights, Eigen::VectorXd& e_q) {
+  double cost = 0.0;
+  for (const IkTarget& t : targets) {
+    const Eigen::Isometry3d X = model.bodyPose(t.body);
+    if (t.position_weight > 0)
+      cost += t.position_weight * t.position_weight * (t.p_WP - X * t.p_BP).squaredNorm();
+    if (t.orientation_weight > 0)
+      cost += t.orientation_weight * t.orientation_weight *
+              logSO3(t.R_WB * X.linear().transpose()).squaredNorm();
+  }
+  differenceConfiguration(model.info().floating_base, q, q_posture, e_q);
+  cost += (posture_weights.array() * e_q.array()).square().sum();
+  return cost;
+}
+}  // namespace
+
 IkResult solvePoseIk(IDynamicsModel& model, const std::vector<IkTarget>& targets,
                      const Eigen::VectorXd& q_posture, const Eigen::VectorXd& posture_weights,
                      const IkOptions& options, Eigen::VectorXd& q) {
@@ -96,13 +116,23 @@ IkResult solvePoseIk(IDynamicsModel& model, const std::vector<IkTarget>& targets
       }
       if (!violated) break;
     }
-    const double step = dv.lpNorm<Eigen::Infinity>();
+    double step = dv.lpNorm<Eigen::Infinity>();
     if (step > kMaxStep) dv *= kMaxStep / step;  // inside the bounds too: lo ≤ 0 ≤ hi
-    integrateConfiguration(info.floating_base, q, dv, 1.0, q);
-    for (int j = 0; j < info.nj; ++j) {
-      const int qi = info.configurationIndex(j);
-      q[qi] = std::clamp(q[qi], info.q_lower[j], info.q_upper[j]);
+    // Backtracking: halve the step until the objective does not increase.
+    const double cost0 = ikCost(model, targets, q, q_posture, posture_weights, e_q);
+    Eigen::VectorXd q_try(q.size());
+    for (int halving = 0; halving < 8; ++halving) {
+      integrateConfiguration(info.floating_base, q, dv, 1.0, q_try);
+      for (int j = 0; j < info.nj; ++j) {
+        const int qi = info.configurationIndex(j);
+        q_try[qi] = std::clamp(q_try[qi], info.q_lower[j], info.q_upper[j]);
+      }
+      model.setState(q_try, v0);
+      if (ikCost(model, targets, q_try, q_posture, posture_weights, e_q) <= cost0 || halving == 7) break;
+      dv *= 0.5;
     }
+    step = dv.lpNorm<Eigen::Infinity>();
+    q = q_try;
     result.iterations = it + 1;
     if (step < options.tolerance) {
       result.converged = true;

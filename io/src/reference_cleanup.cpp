@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -22,7 +21,7 @@ namespace {
 // IK weights of the foot targets: position (1/m) and orientation (1/rad); far above the
 // posture weights so that a stance foot stays within a fraction of a millimetre.
 constexpr double kFootPositionWeight = 1e3;
-constexpr double kFootOrientationWeight = 1e2;
+constexpr double kFootOrientationWeight = 10.0;
 
 // A foot: its body and sole points (body frame) from the neutral stance.
 struct Foot {
@@ -176,7 +175,6 @@ ContactSchedule schedule(const ReferenceMotion& motion, IDynamicsModel& model, c
       d -= d.dot(normal) * normal;
       const double speed = d.norm() / std::max(s.time_s[static_cast<std::size_t>(b)] - s.time_s[static_cast<std::size_t>(a)], 1e-9);
       st[static_cast<std::size_t>(k)] = height[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] <= h_max && speed <= v_max;
-      if (std::getenv("DBG_CLEANUP") && k % 10 == 0) std::fprintf(stderr, "DBG %d %d h %.4f v %.3f c %.3f %.3f\n", i, k, height[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)], speed, c[static_cast<std::size_t>(k)].x(), c[static_cast<std::size_t>(k)].y());
     }
     // Short swing gaps inside stance become stance; then short stance runs become swing.
     for (const char value : {char(0), char(1)})
@@ -365,13 +363,7 @@ CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& mo
     }
     // Warm start from the previous frame's answer (continuous, inside the limits).
     Eigen::VectorXd q = k > 0 ? q_prev : q_ref;
-    const IkResult ikr = solvePoseIk(model, targets, q_ref, weights, ik, q);
-    if (std::getenv("DBG_CLEANUP") && k % 10 == 0) {
-      double e0, r0, e1, r1;
-      ikTargetError(model, targets[0], e0, r0);
-      ikTargetError(model, targets[1], e1, r1);
-      std::fprintf(stderr, "IK %d it %d conv %d err %.4f %.3f %.4f %.3f\n", k, ikr.iterations, ikr.converged, e0, r0, e1, r1);
-    }
+    solvePoseIk(model, targets, q_ref, weights, ik, q);
     Eigen::Quaterniond a(q_ref[3], q_ref[4], q_ref[5], q_ref[6]), b(q[3], q[4], q[5], q[6]);
     if (a.dot(b) < 0) q.segment<4>(3) *= -1.0;
     result.motion.frames[static_cast<std::size_t>(k)].q = q;

@@ -11,7 +11,9 @@
 ///   min_dv Σ_i w_i² ‖J_i dv − e_i‖² + Σ_c w_c² (dv_c − e_q,c)² + λ ‖dv‖²
 /// subject to q_lower − q ≤ dv_joints ≤ q_upper − q by an active set on the bounds
 /// (coordinates that would leave their limits are fixed at the limit and the rest
-/// solved again), then q ← q ⊕ dv. Stops when ‖dv‖∞ < tolerance or after max_iterations.
+/// solved again), then q ← q ⊕ dv with the step limited to 0.5 (rad, m) per coordinate
+/// and halved until the objective does not increase. Stops when ‖dv‖∞ < tolerance or
+/// after max_iterations.
 /// Not for per-tick use (allocates).
 
 #include <vector>
