@@ -19,17 +19,17 @@
 #include "dynfilter/io/retarget.hpp"
 
 namespace {
-// reference.csv -> reference.contacts.csv
+// reference.csv -> reference.stance.csv
 std::string contactsPath(const std::string& out) {
   const std::string ext = ".csv";
   const bool has_ext = out.size() > ext.size() && out.compare(out.size() - ext.size(), ext.size(), ext) == 0;
-  return (has_ext ? out.substr(0, out.size() - ext.size()) : out) + ".contacts.csv";
+  return (has_ext ? out.substr(0, out.size() - ext.size()) : out) + ".stance.csv";
 }
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"Retarget a BVH clip onto a URDF model; writes a reference motion CSV and its "
-               "contact schedule (<output>.contacts.csv)."};
+               "contact schedule (<output>.stance.csv)."};
   std::string bvh_path, mapping_path, out_path, model_path = DYNFILTER_DEFAULT_MODEL;
   std::string backend = "dart", report_path;
   bool clamp = false, allow_unmapped = false, no_cleanup = false;
