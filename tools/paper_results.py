@@ -2,7 +2,7 @@
 """Reproduce the paper's four results (Yamane & Nakamura, dynamics filter) in one command.
 
     build/venv/bin/python tools/paper_results.py [--out build/results]
-        [--only walk,slope,jump,kick] [--check]
+        [--only walk,slope,jump,kick,g1_walk] [--check]
 
 For each result it retargets a CMU clip (dynfilter-bvh2ref), filters it (dynfilter-offline)
 and writes into --out:
@@ -53,12 +53,17 @@ RESULTS = {
     "slope": ("131_01_start_walk_stop.bvh", "131_01.yaml", "walk", ["--slope-deg", f"{SLOPE_DEG:g}"]),
     "jump": ("01_01_forward_jumps.bvh", "01_01.yaml", "jump", []),
     "kick": ("10_01_soccer_kick.bvh", "10_01.yaml", "kick", []),
+    "g1_walk": ("131_01_start_walk_stop.bvh", "131_01_g1.yaml", "g1_walk", []),
 }
+# Results on another robot than the human figure: the URDF comes from this command
+# (the Unitree G1 of the example-robot-data wheel, tools/install-deps.sh).
+ROBOTS = {"g1_walk": [str(ROOT / "tools" / "g1-urdf.sh")]}
 TITLES = {
     "walk": "Walk (CMU 131_01, start–walk–stop), flat ground",
     "slope": f"Walk on a {SLOPE_DEG:g}° downhill slope (same reference as walk)",
     "jump": "Forward jumps (CMU 01_01)",
     "kick": "Soccer kick (CMU 10_01)",
+    "g1_walk": "Walk (CMU 131_01) retargeted to the Unitree G1 (IK mode), flat ground",
 }
 GROUPS = {
     "legs": ("hip", "knee", "ankle"),
@@ -109,6 +114,7 @@ class Model:
                       if c in self.parent]
         self.moving = [self.joints[c][0] for c in self.links
                        if c in self.joints and self.joints[c][1] != "fixed"]
+        self.mass = sum(float(m.get("value")) for m in root.iter("mass"))
         self.effort = {}  # joint -> |tau| limit (N m), from <limit effort>
         for j in root.findall("joint"):
             lim = j.find("limit")
@@ -323,7 +329,8 @@ def metrics_of(filtered_csv, contacts_csv, model=None, mu=0.8):
     m["task_rot_rms_rad"] = float(math.sqrt(np.mean(np.sum(rot ** 2, axis=1))))
     m["max_eq12_residual"] = float(np.max(np.abs(t["eq12_residual"])))
     m["max_base_residual_n"] = float(np.max(np.abs(t["base_residual_n"])))
-    m["max_base_residual_rel_bw"] = m["max_base_residual_n"] / BODY_WEIGHT_N
+    weight = BODY_WEIGHT_N if model is None else model.mass * 9.81
+    m["max_base_residual_rel_bw"] = m["max_base_residual_n"] / weight
     m["max_penetration_mm"] = 1000.0 * float(np.max(t["max_penetration_m"]))
     ct, cb, cn = read_contacts(contacts_csv)
     m["frames_with_contact"] = int(len(np.unique(ct)))
@@ -431,7 +438,10 @@ def plots(name, filtered_csv, contacts_csv, out):
     time_s = t["time"]
     fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
     ax = axes[0]
-    for j in PLOT_JOINTS:
+    # The human figure's leg joints, or on another robot its hip pitch, knee, ankle pitch.
+    joints = [j for j in PLOT_JOINTS if f"{j}.tau" in t] or [
+        c[:-4] for c in t if c.endswith(".tau") and re.search("hip_pitch|knee|ankle_pitch", c)][:6]
+    for j in joints:
         if f"{j}.tau" in t:
             ax.plot(time_s, t[f"{j}.tau"], lw=1, label=j, ls="-" if j.startswith("l_") else "--")
     ax.set_ylabel("joint torque (N·m)")
@@ -672,7 +682,7 @@ def main():
     for b in (offline, bvh2ref):
         if not os.access(b, os.X_OK):
             sys.exit(f"paper_results: {b} not found; build first (cmake --build build)")
-    model = Model(URDF)
+    human = Model(URDF)
     native_bodies = has_bodies_option(offline)
     bodies_note = ("Link positions (`<name>_bodies.csv`) come from `dynfilter-offline "
                    "--bodies-csv` (forward kinematics of the reference and filtered frames)."
@@ -690,11 +700,19 @@ def main():
     for name in names:
         t_start = time.monotonic()
         bvh, mapping, stem, extra = RESULTS[name]
+        model, robot = human, []
+        if name in ROBOTS:
+            found = subprocess.run(ROBOTS[name], capture_output=True, text=True)
+            if found.returncode != 0:
+                print(f"{name}: skipped, {found.stderr.strip()}")
+                continue
+            urdf = found.stdout.strip()
+            model, robot = Model(urdf), ["--model", urdf]
         commands = []
         reference = out / f"{stem}_reference.csv"
         if stem not in made_refs:
             run([bvh2ref, str(CMU / bvh), "--mapping", str(CMU / "mappings" / mapping),
-                 "-o", str(reference)], out / f"{stem}_bvh2ref.log", commands)
+                 "-o", str(reference)] + robot, out / f"{stem}_bvh2ref.log", commands)
             made_refs[stem] = commands[-1]
         else:
             commands.append(made_refs[stem])
@@ -717,7 +735,7 @@ def main():
         filtered = out / f"{name}_filtered.csv"
         contacts = out / f"{name}_filtered.contacts.csv"
         bodies = out / f"{name}_bodies.csv"
-        cmd = [offline, str(reference), "-o", str(filtered), "--no-progress"] + extra
+        cmd = [offline, str(reference), "-o", str(filtered), "--no-progress"] + extra + robot
         if native_bodies:
             cmd += ["--bodies-csv", str(bodies)]
         run(cmd, out / f"{name}_offline.log", commands)
@@ -726,7 +744,7 @@ def main():
         m = metrics_of(filtered, contacts, model)
         # The same input in the QP mode (issue 7): unilateral, friction, CoP, limits.
         filtered_qp = out / f"{name}_qp_filtered.csv"
-        run([offline, str(reference), "-o", str(filtered_qp), "--no-progress", "--mode", "qp"] + extra,
+        run([offline, str(reference), "-o", str(filtered_qp), "--no-progress", "--mode", "qp"] + extra + robot,
             out / f"{name}_qp_offline.log", commands)
         m_qp = metrics_of(filtered_qp, out / f"{name}_qp_filtered.contacts.csv", model)
         times, ref_b, fil_b = read_bodies(bodies, model.links)

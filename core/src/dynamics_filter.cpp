@@ -8,6 +8,7 @@
 #include <Eigen/Cholesky>
 
 #include "dynfilter/core/errors.hpp"
+#include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/lie_group.hpp"
 
 namespace dynfilter {
@@ -42,7 +43,8 @@ DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& optio
       out_(model.nq(), model.nv(), model.nj(), options.contacts.max_links) {
   const ModelInfo& info = model.info();
   if (options_.task.enabled) {
-    task_body_ = info.findBody(options_.task.body);
+    task_body_ = options_.task.body.empty() ? chooseTrunkBody(model_)
+                                            : info.findBody(options_.task.body);
     if (task_body_ < 0)
       throw std::invalid_argument("filter option task.body: \"" + options_.task.body +
                                   "\" is not a link of model \"" + info.name + "\"");

@@ -26,7 +26,6 @@ void FilterOptions::validate() const {
           "task.k*", "gains must be finite and >= 0");
   require(positive(task.joint_weight), "task.joint_weight", "must be > 0");
   require(task.p_BP.allFinite(), "task.p_BP", "must be finite");
-  require(!task.enabled || !task.body.empty(), "task.body", "must name a link");
   require(contacts.max_links >= 1 && contacts.max_links <= 64, "contacts.max_links",
           "must be in [1, 64]");
   require(nonNegative(contacts.stabilization_kp) && nonNegative(contacts.stabilization_kd),

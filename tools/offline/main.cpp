@@ -176,6 +176,9 @@ int main(int argc, char** argv) {
                                : std::lround(std::floor((t_end - t0) / dt + 1e-9)) + 1;
 
     DynamicsFilter filter(*model, config.filter, proxqp::factory());
+    if (config.filter.task.enabled && config.filter.task.body.empty() && !quiet)
+      std::fprintf(stderr, "task point on \"%s\" (task.body not configured: the model's trunk)\n",
+                   model->info().body_names[static_cast<std::size_t>(filter.taskBody())].c_str());
     io::FilteredMotionWriter writer(output_path, model->info());
     BodyPositionWriter bodies(bodies_path, model->info());
     tools::RunSummary summary(model->info());

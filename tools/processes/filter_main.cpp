@@ -199,6 +199,9 @@ int main(int argc, char** argv) {
     hold.q = info.neutralConfiguration();
     if (info.floating_base) hold.q[2] = standingBaseHeight(*model, hold.q);
     realtime::RealtimeFilter rt(*model, config.filter, rt_options, hold, proxqp::factory());
+    if (config.filter.task.enabled && config.filter.task.body.empty())
+      std::fprintf(stderr, "dynfilter: task point on \"%s\" (task.body not configured: the model's trunk)\n",
+                   info.body_names[static_cast<std::size_t>(rt.filter().taskBody())].c_str());
 
     lcm::LCM lcm(url);
     if (!lcm.good()) throw std::runtime_error("cannot open LCM (" + (url.empty() ? std::string("default URL") : url) + ")");

@@ -60,6 +60,9 @@ class DynamicsFilter {
   const Eigen::VectorXd& q() const { return q_; }
   const Eigen::VectorXd& v() const { return v_; }
   const FilterOptions& options() const { return options_; }
+  /// Body that carries the task point P (the configured task.body, or the one chosen from
+  /// the model when task.body is empty); −1 when the task is disabled.
+  int taskBody() const { return task_body_; }
   const VirtualLinkSet& links() const { return links_; }
 
  private:

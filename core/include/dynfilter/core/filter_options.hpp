@@ -24,7 +24,10 @@ struct JointFeedbackGains {
 /// Task feedback of a point P on the upper body (Eq. 18–20).
 struct TaskPointOptions {
   bool enabled = true;
-  std::string body = "torso";                                   ///< link of P
+  /// Link of P; empty: chosen from the model's structure (chooseTrunkBody in
+  /// kinematic_tree.hpp: the trunk, e.g. the torso that carries the arms), see
+  /// DynamicsFilter::taskBody().
+  std::string body;
   Eigen::Vector3d p_BP = Eigen::Vector3d(0.0, 0.0, 0.3);         ///< P in that link (m)
   double kp_linear = 100.0, kd_linear = 20.0;    ///< 1/s², 1/s
   double kp_angular = 100.0, kd_angular = 20.0;  ///< 1/s², 1/s
