@@ -144,6 +144,7 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
     model.setState(q_saved, v_saved);
   }
   for (SoleOptions& sole : soles_) sole.n_B.normalize();
+  sole_refs_.resize(soles_.size());
 }
 
 const BalanceLayer::Sample& BalanceLayer::at(int i) const {
@@ -172,6 +173,7 @@ void BalanceLayer::makeSample(IDynamicsModel& model, const ReferenceFrame& frame
   model.setState(q_lowered_, frame.v);
   model.detectContacts(candidates_);
   int n = 0;
+  out.stance = 0;
   for (const ContactCandidate& c : candidates_) {
     if (n >= static_cast<int>(points_.size())) break;
     const Vector6d V = model.bodyVelocity(c.body);
@@ -179,6 +181,7 @@ void BalanceLayer::makeSample(IDynamicsModel& model, const ReferenceFrame& frame
     const Eigen::Vector3d v_point = V.head<3>() + V.tail<3>().cross(r);
     if (v_point.norm() > options_.stance_speed_mps) continue;
     points_[static_cast<std::size_t>(n++)] = c.p_WC.head<2>();
+    if (c.body < 64) out.stance |= std::uint64_t{1} << c.body;
   }
   out.num_support = convexHull(points_, n, out.support);
   model.setState(frame.q, frame.v);
@@ -224,11 +227,39 @@ void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& referenc
     now_.t = t;
     now_.c = a.c + s * (b.c - a.c);
     now_.cdot = a.cdot + s * (b.cdot - a.cdot);
-    now_.num_support = a.num_support;
-    now_.support = a.support;
+    const Sample& nearest = s < 0.5 ? a : b;
+    now_.num_support = nearest.num_support;
+    now_.support = nearest.support;
+    now_.stance = nearest.stance;
   } else {
     makeSample(model, reference, now_);
   }
+  // The soles in the reference: pose, motion and clearance (for the swing-sole task).
+  model.setState(reference.q, reference.v);
+  for (std::size_t s = 0; s < soles_.size(); ++s) {
+    SoleReference& r = sole_refs_[s];
+    const int body = sole_bodies_[s];
+    const Eigen::Isometry3d X_WB = model.bodyPose(body);
+    model.pointJacobian(body, Eigen::Vector3d::Zero(), J_);
+    const Vector6d V = J_ * reference.v;
+    const Vector6d acc = J_ * reference.vdot + model.pointJacobianDotTimesV(body, Eigen::Vector3d::Zero());
+    r.p = X_WB.translation();
+    r.R = X_WB.linear();
+    r.pdot = V.head<3>();
+    r.omega = V.tail<3>();
+    r.pddot = acc.head<3>();
+    r.omegadot = acc.tail<3>();
+    r.clearance_m = 1e9;
+  }
+  q_lowered_ = reference.q;
+  q_lowered_[2] -= options_.stance_height_m;
+  model.setState(q_lowered_, reference.v);
+  model.detectContacts(candidates_);
+  model.setState(reference.q, reference.v);
+  for (const ContactCandidate& c : candidates_)
+    for (std::size_t s = 0; s < soles_.size(); ++s)
+      if (c.body == sole_bodies_[s])
+        sole_refs_[s].clearance_m = std::min(sole_refs_[s].clearance_m, options_.stance_height_m - c.depth_m);
   state_.reference.c_W = now_.c;
   state_.reference.cdot_W = now_.cdot;
   const Environment& env = model.environment();
@@ -318,6 +349,30 @@ void BalanceLayer::addSoleCandidates(IDynamicsModel& model, const Eigen::Ref<con
   }
 }
 
+int BalanceLayer::swingSoleRows(const IDynamicsModel& model, const Eigen::Ref<const Eigen::VectorXd>& v,
+                                std::size_t s, int rows, QpObjectiveTasks& tasks) {
+  // A sole in the air follows the reference's sole (world pose); when the reference has it
+  // in stance, to 2 mm below the surface under it, so that it lands and its link forms.
+  const SoleReference& r = sole_refs_[s];
+  const int body = sole_bodies_[s];
+  const int nv = info_.nv;
+  const Eigen::Isometry3d X_WB = model.bodyPose(body);
+  model.pointJacobian(body, Eigen::Vector3d::Zero(), J_);
+  const Vector6d drift = model.pointJacobianDotTimesV(body, Eigen::Vector3d::Zero());
+  const Vector6d V = J_ * v;
+  Eigen::Vector3d p_target = r.p;
+  if (r.clearance_m <= options_.stance_height_m) p_target.z() -= r.clearance_m + 0.002;
+  const double kp = options_.sole_kp, kd = options_.sole_kd;
+  Vector6d acc;
+  acc.head<3>() = r.pddot + kd * (r.pdot - V.head<3>()) + kp * (p_target - X_WB.translation());
+  acc.tail<3>() = r.omegadot + kd * (r.omega - V.tail<3>()) + kp * logSO3(r.R * X_WB.linear().transpose());
+  tasks.T.block(rows, 0, 6, tasks.T.cols()).setZero();
+  tasks.T.block(rows, 0, 6, nv) = J_;
+  tasks.r.segment<6>(rows) = acc - drift;
+  tasks.w.segment<6>(rows).setConstant(options_.sole_weight);
+  return rows + 6;
+}
+
 void BalanceLayer::buildTasks(const IDynamicsModel& model, const Eigen::Ref<const Eigen::MatrixXd>& A,
                               const Eigen::Ref<const Eigen::VectorXd>& q,
                               const Eigen::Ref<const Eigen::VectorXd>& v, const VirtualLinkSet& links,
@@ -384,7 +439,10 @@ void BalanceLayer::buildTasks(const IDynamicsModel& model, const Eigen::Ref<cons
     const VirtualLink* held = nullptr;
     for (int i = 0; i < links.size(); ++i)
       if (links[i].body == body) held = &links[i];
-    if (held == nullptr) continue;
+    if (held == nullptr) {
+      rows = swingSoleRows(model, v, s, rows, tasks);
+      continue;
+    }
     const Eigen::Isometry3d X_WB = model.bodyPose(body);
     const Eigen::Vector3d n_W = X_WB.linear() * soles_[s].n_B;
     const Eigen::Vector3d n_ground = held->X_WA.linear().col(2);

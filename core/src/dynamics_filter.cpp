@@ -225,10 +225,11 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
 
   // Reference kinematics: the task point P, and (QP mode) contact points the reference lifts.
   if (task_body_ >= 0 || contact_qp_) model_.setState(ref.q, ref.v);
-  if (contact_qp_) links_.startLiftoffReleases(model_, options_.qp.liftoff_clearance_m);
   out_.infeasible_reason = 0;
+  if (contact_qp_ && !balance_) links_.startLiftoffReleases(model_, options_.qp.liftoff_clearance_m);
   if (balance_) {
     balance_->prepare(model_, ref, options_.dt_s);
+    links_.applyReferenceSchedule(balance_->referenceStance());
     const InfeasibleReason infeasible = balance_->state().infeasible;
     if (infeasible != InfeasibleReason::kNone) {
       status |= kStatusReferenceInfeasible;

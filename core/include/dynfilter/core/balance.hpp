@@ -81,7 +81,7 @@ class BalanceLayer {
   BalanceLayer(IDynamicsModel& model, const BalanceOptions& options);
 
   /// Rows the layer may write into a QpObjectiveTasks.
-  int maxTaskRows() const { return 6 + 3 * static_cast<int>(soles_.size()); }
+  int maxTaskRows() const { return 6 + 6 * static_cast<int>(soles_.size()); }
 
   /// Adds a reference frame of the future (time after the previous one's; otherwise the
   /// preview restarts from it). Poses @p model at the frame. Returns false when the frame
@@ -111,6 +111,10 @@ class BalanceLayer {
                          ContactList& candidates);
 
   const BalanceState& state() const { return state_; }
+  /// The reference's contact schedule at the last prepare(): bit b set when the reference
+  /// has body b within stance_height_m of the environment and slower than
+  /// stance_speed_mps (bodies ≥ 64 are not tracked).
+  std::uint64_t referenceStance() const { return now_.stance; }
   /// Bodies kept flat on the ground while in contact (body indices).
   const std::vector<int>& soleBodies() const { return sole_bodies_; }
 
@@ -121,8 +125,17 @@ class BalanceLayer {
     Eigen::Vector3d c = Eigen::Vector3d::Zero(), cdot = Eigen::Vector3d::Zero();
     int num_support = 0;
     std::array<Eigen::Vector2d, kMaxSupport> support;  // convex hull, counter-clockwise
+    std::uint64_t stance = 0;  // bodies (< 64) in stance
+  };
+  struct SoleReference {  // a sole's pose and motion in the reference at this tick
+    Eigen::Vector3d p = Eigen::Vector3d::Zero(), pdot = Eigen::Vector3d::Zero(), pddot = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d omega = Eigen::Vector3d::Zero(), omegadot = Eigen::Vector3d::Zero();
+    double clearance_m = 1e9;  // height of its lowest point above the environment (≤ stance height)
   };
   void makeSample(IDynamicsModel& model, const ReferenceFrame& frame, Sample& out);
+  int swingSoleRows(const IDynamicsModel& model, const Eigen::Ref<const Eigen::VectorXd>& v,
+                    std::size_t s, int rows, QpObjectiveTasks& tasks);
   const Sample& at(int i) const;  // 0 = oldest
   double groundHeight(const Eigen::Vector2d& p_xy) const;
   // Reference CoP (LIPM) over [a, b], clamped into a's support.
@@ -134,6 +147,7 @@ class BalanceLayer {
   const Environment* environment_ = nullptr;  // the model's, from the last prepare()
   std::vector<int> sole_bodies_;
   std::vector<SoleOptions> soles_;
+  std::vector<SoleReference> sole_refs_;
   std::vector<Sample> ring_;
   int head_ = 0, size_ = 0;
   Sample now_;                  // the reference at this tick
