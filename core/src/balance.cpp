@@ -179,7 +179,8 @@ void BalanceLayer::makeSample(IDynamicsModel& model, const ReferenceFrame& frame
     const Vector6d V = model.bodyVelocity(c.body);
     const Eigen::Vector3d r = c.p_WC - model.bodyPose(c.body).translation();
     const Eigen::Vector3d v_point = V.head<3>() + V.tail<3>().cross(r);
-    if (v_point.norm() > options_.stance_speed_mps) continue;
+    // Slow along the surface: a reference foot sinking into the ground is still in stance.
+    if ((v_point - c.n_W * c.n_W.dot(v_point)).norm() > options_.stance_speed_mps) continue;
     points_[static_cast<std::size_t>(n++)] = c.p_WC.head<2>();
     if (c.body < 64) out.stance |= std::uint64_t{1} << c.body;
   }

@@ -148,7 +148,8 @@ struct BalanceOptions {
   /// Future reference frames kept (count).
   int preview_capacity = 512;
   /// A reference body point this close to the ground (m) and slower than stance_speed
-  /// (m/s) supports the reference: the support polygon of its centre of pressure.
+  /// along the surface (m/s) supports the reference: the support polygon of its centre of
+  /// pressure, and the contact schedule of the virtual links.
   double stance_height_m = 0.02;
   double stance_speed_mps = 0.5;
   /// Soles kept flat on the ground while their body holds a contact (feet).
