@@ -3,6 +3,7 @@
 // backends), the start of the CMU walk without a re-seed or a violated limit, and
 // references the figure cannot follow (hanging in the air, a 40° slope) ending in a clear
 // status instead of teleports.
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -88,22 +89,30 @@ std::vector<ReferenceFrame> walkStart(IDynamicsModel& model, double seconds) {
   return frames;
 }
 
-TEST(Balance, StartOfTheCmuWalkWithTheDefaultsNeedsNoReseedAndKeepsEveryLimit) {
+struct WalkWindow {
+  std::uint64_t reseeds = 0;
+  std::uint32_t status_union = 0, violated_union = 0;
+  double max_base_residual_n = 0.0, weight_n = 0.0, legs_rms = 0.0, base_rms = 0.0;
+  bool balance = false;
+};
+
+// The CMU walk's first @p seconds in the QP mode with the defaults, as dynfilter-offline
+// runs it (480 Hz, the clip's future in the preview).
+WalkWindow runWalk(double seconds) {
   auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const ModelInfo& info = model->info();
-  const auto frames = walkStart(*model, 1.0);
-  ASSERT_GE(frames.size(), 100u);
-  const int substeps = 4;  // 480 Hz on the 120 Hz clip, as dynfilter-offline does
+  const auto frames = walkStart(*model, seconds);
+  const int substeps = 4;
   FilterOptions options = qpDefaults((frames[1].time_s - frames[0].time_s) / substeps);
-  options.balance.preview_s = 1.0;  // offline: the clip's future
+  options.balance.preview_s = 2.0;  // offline: the clip's future
   DynamicsFilter filter(*model, options, proxqp::factory());
   filter.reset(frames.front());
   std::size_t previewed = 0;
   ReferenceFrame ref(info.nq, info.nv);
-  const double weight = info.total_mass * kGravity;
-  double legs_sq = 0.0, base_sq = 0.0, max_base_residual = 0.0;
+  WalkWindow w;
+  w.weight_n = info.total_mass * kGravity;
+  double legs_sq = 0.0, base_sq = 0.0;
   long legs_n = 0, ticks = 0;
-  std::uint32_t status_union = 0, violated_union = 0;
   for (std::size_t segment = 0; segment + 1 < frames.size(); ++segment) {
     for (int s = 0; s < substeps; ++s) {
       const double t = frames[segment].time_s + s * options.dt_s;
@@ -112,9 +121,9 @@ TEST(Balance, StartOfTheCmuWalkWithTheDefaultsNeedsNoReseedAndKeepsEveryLimit) {
       interpolateReference(true, frames[segment], frames[segment + 1], t, ref);
       const FilterOutput& out = filter.step(ref);
       ++ticks;
-      status_union |= out.status;
-      violated_union |= out.qp_violated;
-      max_base_residual = std::max(max_base_residual, out.base_residual_n);
+      w.status_union |= out.status;
+      w.violated_union |= out.qp_violated;
+      w.max_base_residual_n = std::max(w.max_base_residual_n, out.base_residual_n);
       base_sq += out.tracking_error.head<3>().squaredNorm();
       for (int j = 0; j < info.nj; ++j) {
         const std::string& name = info.joint_names[static_cast<std::size_t>(j)];
@@ -126,21 +135,43 @@ TEST(Balance, StartOfTheCmuWalkWithTheDefaultsNeedsNoReseedAndKeepsEveryLimit) {
       }
     }
   }
-  const double legs_rms = std::sqrt(legs_sq / legs_n), base_rms = std::sqrt(base_sq / ticks);
-  RecordProperty("legs_rms_rad", std::to_string(legs_rms));
-  RecordProperty("base_rms_m", std::to_string(base_rms));
-  EXPECT_NE(filter.balance(), nullptr);
-  EXPECT_EQ(filter.output().counters.reseeds, 0u);
-  EXPECT_EQ(status_union & (kStatusReseeded | kStatusQpFallback | kStatusQpRelaxed |
-                            kStatusReferenceInfeasible | kStatusNonFinite),
+  w.legs_rms = std::sqrt(legs_sq / legs_n);
+  w.base_rms = std::sqrt(base_sq / ticks);
+  w.reseeds = filter.output().counters.reseeds;
+  w.balance = filter.balance() != nullptr;
+  return w;
+}
+
+TEST(Balance, StartOfTheCmuWalkWithTheDefaultsNeedsNoReseedAndKeepsEveryLimit) {
+  const WalkWindow w = runWalk(1.0);  // the stance before the first step
+  RecordProperty("legs_rms_rad", std::to_string(w.legs_rms));
+  RecordProperty("base_rms_m", std::to_string(w.base_rms));
+  EXPECT_TRUE(w.balance);
+  EXPECT_EQ(w.reseeds, 0u);
+  EXPECT_EQ(w.status_union & (kStatusReseeded | kStatusQpFallback | kStatusQpRelaxed |
+                              kStatusReferenceInfeasible | kStatusNonFinite),
             0u)
-      << "status union " << status_union;
-  EXPECT_EQ(violated_union, 0u) << "no constraint family violated (pulling, friction, CoP, torque)";
-  EXPECT_LE(max_base_residual, 1e-8 * weight);
+      << "status union " << w.status_union;
+  EXPECT_EQ(w.violated_union, 0u) << "no constraint family violated (pulling, friction, CoP, torque)";
+  EXPECT_LE(w.max_base_residual_n, 1e-8 * w.weight_n);
   // Measured per tick: legs 0.14 rad, base 0.034 m (DART, defaults). The target for
   // the base is 5 cm; the legs' 0.08 rad is not met yet (docs/balance.md).
-  EXPECT_LE(legs_rms, 0.18);
-  EXPECT_LE(base_rms, 0.05);
+  EXPECT_LE(w.legs_rms, 0.18);
+  EXPECT_LE(w.base_rms, 0.05);
+}
+
+TEST(Balance, FirstStepsOfTheCmuWalkNeedNoReseed) {
+  // Through the first steps, to 1.85 s (dynfilter-offline with main's filter re-seeds at
+  // 1.47 s on this clip). Tracking is loose here (legs 0.31 rad, base 0.11 m measured) and
+  // some ticks need a QP relaxation: not the targets yet. Checked: this window
+  // also passes with the contact schedule reverted to the 2 cm lift-off rule, so it does
+  // not single out that mechanism.
+  const WalkWindow w = runWalk(1.85);
+  EXPECT_EQ(w.reseeds, 0u);
+  EXPECT_EQ(w.status_union & (kStatusReseeded | kStatusQpFallback | kStatusNonFinite), 0u)
+      << "status union " << w.status_union;
+  EXPECT_LE(w.max_base_residual_n, 1e-8 * w.weight_n);
+  EXPECT_LE(w.base_rms, 0.15);
 }
 
 // A standing reference the figure cannot follow: reports why, never re-seeds.
