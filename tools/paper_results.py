@@ -30,6 +30,8 @@ import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
 SKIP = 77
 try:
     import numpy as np
@@ -354,6 +356,47 @@ def metrics_of(filtered_csv, contacts_csv, model=None, mu=0.8):
     return m
 
 
+def motion_metrics(filtered_csv, reference_csv, bodies_csv, contacts_csv, events_csv, model):
+    """Issue 13's per-mode numbers: re-seeds (every tick, from --events-csv), base and CoM
+    error, stance-foot skate in the output, the largest per-frame base jump."""
+    import diagnose_reseeds as dr  # the URDF's masses and forward kinematics with rotations
+    m = {}
+    reseeds = 0
+    if Path(events_csv).exists():
+        with open(events_csv, newline="") as f:
+            reseeds = sum(1 for r in csv.DictReader(f) if int(r["status"]) & 16)
+    m["reseed_ticks"] = reseeds
+    fil, ref = read_table(filtered_csv), read_table(reference_csv)
+    base = np.column_stack([fil[f"base_{c}"] for c in "xyz"])
+    m["base_rms_m"] = float(math.sqrt(np.mean(np.sum(np.column_stack(
+        [fil[f"err.base_{c}"] for c in "xyz"]) ** 2, axis=1))))
+    m["max_base_jump_mm"] = 1000.0 * float(np.max(np.linalg.norm(np.diff(base, axis=0), axis=1))) \
+        if len(base) > 1 else 0.0
+    body = dr.Body(URDF)
+    idx = np.clip(np.searchsorted(ref["time"], fil["time"] - 1e-9), 0, len(ref["time"]) - 1)
+    c_f = np.array([body.com_of(*body.fk(*q_of(fil, k, model.moving))) for k in range(len(fil["time"]))])
+    c_r = np.array([body.com_of(*body.fk(*q_of(ref, i, model.moving))) for i in idx])
+    m["com_rms_m"] = float(math.sqrt(np.mean(np.sum((c_f - c_r) ** 2, axis=1))))
+    # Skate: per stance (consecutive written frames with a contact on the foot), how far the
+    # foot's origin moves horizontally from where the stance began; the worst stance.
+    times, _, fil_b = read_bodies(bodies_csv, model.links)
+    c = read_contact_rows(contacts_csv)
+    worst = 0.0
+    for foot in [l for l in model.links if "foot" in l]:
+        li = model.links.index(foot)
+        on = set(np.round(c["time"][c["body"] == foot], 6)) if c else set()
+        start = None
+        for k, t in enumerate(times):
+            if round(float(t), 6) in on:
+                if start is None:
+                    start = k
+                worst = max(worst, float(np.linalg.norm(fil_b[k, li, :2] - fil_b[start, li, :2])))
+            else:
+                start = None
+    m["max_stance_skate_mm"] = 1000.0 * worst
+    return m
+
+
 # ----------------------------------------------------------------------------- pictures
 def view_axes(reference_csv, model):
     """Horizontal axis of the side view: the direction of travel when the figure travels
@@ -561,6 +604,11 @@ MODE_ROWS = [
     ("max_base_residual_rel_bw", "max base residual / body weight", "{:.2e}"),
     ("max_penetration_mm", "max penetration (mm)", "{:.2f}"),
     ("frames_reseeded", "frames re-seeded from the reference (divergence guard)", "{:d}"),
+    ("reseed_ticks", "re-seeding ticks (every tick, --events-csv)", "{:d}"),
+    ("base_rms_m", "base position RMS (m)", "{:.4f}"),
+    ("com_rms_m", "centre of mass error RMS (m)", "{:.4f}"),
+    ("max_stance_skate_mm", "largest stance-foot skate in the output (mm)", "{:.1f}"),
+    ("max_base_jump_mm", "largest per-frame base jump (mm)", "{:.1f}"),
     ("frames_qp_relaxed", "frames answered by a QP relaxation", "{:d}"),
     ("frames_qp_fallback", "frames that fell back to the paper solve", "{:d}"),
     ("mean_tick_us", "mean time per tick (µs)", "{:.1f}"),
@@ -624,6 +672,8 @@ def write_report(out, entries, total_s, bodies_note):
             L += [e["note"], ""]
         L += [f"Generated {e['date']}; {e['seconds']:.1f} s.", "",
               f"![{n} filmstrip]({n}_filmstrip.png)", "",
+              f"QP mode: ![{n} QP filmstrip]({n}_qp_filmstrip.png)", "",
+              f"QP-mode animation: [{n}_qp_animation.gif]({n}_qp_animation.gif)", "",
               f"![{n} plots]({n}_plots.png)", "",
               f"Animation: [{n}_animation.gif]({n}_animation.gif)", "",
               "Commands (from the repository root):", "", "```"] + e["commands"] + ["```", ""]
@@ -643,7 +693,8 @@ def check(out, names):
             if isinstance(v, (int, float)):
                 assert math.isfinite(v), f"{n}: metric {k} = {v}"
         for suffix, magic in (("_filmstrip.png", b"\x89PNG\r\n\x1a\n"), ("_plots.png", b"\x89PNG\r\n\x1a\n"),
-                              ("_animation.gif", b"GIF8")):
+                              ("_animation.gif", b"GIF8"), ("_qp_filmstrip.png", b"\x89PNG\r\n\x1a\n"),
+                              ("_qp_animation.gif", b"GIF8")):
             p = out / f"{n}{suffix}"
             assert p.exists() and p.stat().st_size > 0, f"{p} missing or empty"
             assert p.read_bytes()[:len(magic)] == magic, f"{p}: bad signature"
@@ -735,18 +786,24 @@ def main():
         filtered = out / f"{name}_filtered.csv"
         contacts = out / f"{name}_filtered.contacts.csv"
         bodies = out / f"{name}_bodies.csv"
-        cmd = [offline, str(reference), "-o", str(filtered), "--no-progress"] + extra + robot
+        cmd = [offline, str(reference), "-o", str(filtered), "--no-progress",
+               "--events-csv", str(out / f"{name}_events.csv")] + extra + robot
         if native_bodies:
             cmd += ["--bodies-csv", str(bodies)]
         run(cmd, out / f"{name}_offline.log", commands)
         if not native_bodies:
             write_bodies_fk(model, reference, filtered, bodies)
         m = metrics_of(filtered, contacts, model)
+        m.update(motion_metrics(filtered, reference, bodies, contacts, out / f"{name}_events.csv", model))
         # The same input in the QP mode (issue 7): unilateral, friction, CoP, limits.
         filtered_qp = out / f"{name}_qp_filtered.csv"
-        run([offline, str(reference), "-o", str(filtered_qp), "--no-progress", "--mode", "qp"] + extra + robot,
+        bodies_qp = out / f"{name}_qp_bodies.csv"
+        run([offline, str(reference), "-o", str(filtered_qp), "--no-progress", "--mode", "qp",
+             "--events-csv", str(out / f"{name}_qp_events.csv"), "--bodies-csv", str(bodies_qp)] + extra + robot,
             out / f"{name}_qp_offline.log", commands)
         m_qp = metrics_of(filtered_qp, out / f"{name}_qp_filtered.contacts.csv", model)
+        m_qp.update(motion_metrics(filtered_qp, reference, bodies_qp, out / f"{name}_qp_filtered.contacts.csv",
+                                   out / f"{name}_qp_events.csv", model))
         times, ref_b, fil_b = read_bodies(bodies, model.links)
         u = view_axes(reference, model)
         slope = SLOPE_DEG if "--slope-deg" in extra else 0.0
@@ -756,6 +813,11 @@ def main():
         plots(name, filtered, contacts, out / f"{name}_plots.png")
         fps, astep, nframes = animate(name, times, ref_b, fil_b, model, u, ground,
                                       out / f"{name}_animation.gif")
+        # The QP mode's motion, drawn the same way.
+        TITLES[f"{name}_qp"] = TITLES[name] + ", QP mode"
+        times_q, ref_q, fil_q = read_bodies(bodies_qp, model.links)
+        filmstrip(f"{name}_qp", times_q, ref_q, fil_q, model, u, ground, out / f"{name}_qp_filmstrip.png")
+        animate(f"{name}_qp", times_q, ref_q, fil_q, model, u, ground, out / f"{name}_qp_animation.gif")
         note += (" " if note else "") + (
             f"Side view along ({u[0]:.2f}, {u[1]:.2f}) in the horizontal plane; filmstrip every "
             f"{step} frames; animation {nframes} frames at {fps} fps (every {astep} frames).")

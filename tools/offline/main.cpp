@@ -109,7 +109,7 @@ int main(int argc, char** argv) {
   std::string backend = "dart", mode;
   double tick_hz = 500.0, slope_deg = NAN, heading_deg = 0.0, friction = NAN;
   bool every_tick = false, quiet = false, no_progress = false;
-  std::string bodies_path;
+  std::string bodies_path, events_path;
   app.add_option("reference", reference_path, "reference motion CSV (see README)")->required();
   app.add_option("-o,--output", output_path, "filtered motion CSV to write")->required();
   app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
@@ -133,6 +133,14 @@ int main(int argc, char** argv) {
   app.add_option("--bodies-csv", bodies_path,
                  "also write every link's world position, reference and filtered, per row "
                  "(for pictures)");
+  double preview_s = NAN;
+  app.add_option("--preview-s", preview_s,
+                 "look-ahead of the balance layer (QP mode), s; default: the whole clip")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--events-csv", events_path,
+                 "also write one row per tick that re-seeded, relaxed or fell back: "
+                 "time,tick,status,reseed_reason,qp_relaxation,qp_violated,base_error_m,"
+                 "base_rotation_rad,max_joint_error_rad (what tools/diagnose_reseeds.py reads)");
   app.add_flag("-q,--quiet", quiet, "no summary");
   CLI11_PARSE(app, argc, argv);
 
@@ -175,10 +183,23 @@ int main(int argc, char** argv) {
     const long ticks = uniform ? static_cast<long>(frames.size() - 1) * substeps + 1
                                : std::lround(std::floor((t_end - t0) / dt + 1e-9)) + 1;
 
+    // Offline the whole clip is known: the balance layer may look at all of it.
+    config.filter.balance.preview_s = std::isnan(preview_s) ? t_end - t0 : preview_s;
+    config.filter.balance.preview_capacity =
+        std::max(config.filter.balance.preview_capacity, static_cast<int>(frames.size()) + 1);
     DynamicsFilter filter(*model, config.filter, proxqp::factory());
     if (config.filter.task.enabled && config.filter.task.body.empty() && !quiet)
       std::fprintf(stderr, "task point on \"%s\" (task.body not configured: the model's trunk)\n",
                    model->info().body_names[static_cast<std::size_t>(filter.taskBody())].c_str());
+    std::size_t previewed = 0;
+    std::FILE* events = nullptr;
+    if (!events_path.empty()) {
+      events = std::fopen((events_path + ".tmp").c_str(), "w");
+      if (events == nullptr) throw std::runtime_error("cannot write " + events_path + ".tmp");
+      std::fprintf(events, "time,tick,status,reseed_reason,qp_relaxation,qp_violated,base_error_m,"
+                           "base_rotation_rad,max_joint_error_rad\n");
+    }
+    const int nb = model->info().floating_base ? 6 : 0;
     io::FilteredMotionWriter writer(output_path, model->info());
     BodyPositionWriter bodies(bodies_path, model->info());
     tools::RunSummary summary(model->info());
@@ -193,10 +214,22 @@ int main(int argc, char** argv) {
                                      static_cast<double>(k % substeps) * dt
                                : t0 + static_cast<double>(k) * dt;
       while (segment + 2 < frames.size() && frames[segment + 1].time_s <= t) ++segment;
+      while (previewed < frames.size() &&
+             frames[previewed].time_s <= t + config.filter.balance.preview_s + 1e-9)
+        filter.previewFrame(frames[previewed++]);
       interpolateReference(model->info().floating_base, frames[segment], frames[segment + 1], t,
                            ref);
       const FilterOutput& out = filter.step(ref);
       summary.add(out);
+      if (events != nullptr && (out.status & (kStatusReseeded | kStatusQpRelaxed | kStatusQpFallback))) {
+        char violated[96];
+        const Eigen::VectorXd& e = out.tracking_error;
+        std::fprintf(events, "%.6f,%ld,%u,%s,%u,%s,%.6g,%.6g,%.6g\n", t, k, out.status,
+                     (out.status & kStatusReseeded) ? toString(out.reseed_reason) : "",
+                     out.qp_relaxation, describeQpFamilies(out.qp_violated, violated, sizeof violated),
+                     nb ? e.head<3>().norm() : 0.0, nb ? e.segment<3>(3).norm() : 0.0,
+                     model->nj() > 0 ? e.tail(model->nj()).cwiseAbs().maxCoeff() : 0.0);
+      }
       bool write = every_tick || (uniform && k % substeps == 0);
       if (!uniform)
         while (next_frame < frames.size() && frames[next_frame].time_s < t + 0.5 * dt) {
@@ -217,6 +250,11 @@ int main(int argc, char** argv) {
     progress.done();
     writer.commit();
     bodies.commit();
+    if (events != nullptr) {
+      const bool ok = std::fclose(events) == 0;
+      if (!ok || std::rename((events_path + ".tmp").c_str(), events_path.c_str()) != 0)
+        throw std::runtime_error("cannot write " + events_path);
+    }
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     if (!quiet) {
       std::fprintf(stderr, "wrote %s and %s\n", writer.path().c_str(), writer.contactsPath().c_str());
