@@ -15,6 +15,7 @@
 #include <CLI/CLI.hpp>
 
 #include "dynfilter/backends/make_model.hpp"
+#include "model_cli.hpp"
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
 
@@ -44,13 +45,15 @@ int main(int argc, char** argv) {
   app.add_flag("--no-cleanup", no_cleanup,
                "no clean-up (contact schedule, stance feet on the ground, joint limits)");
   app.add_option("--report", report_path, "also write the report to this file");
+  dynfilter::tools::ModelCli model_cli;
+  dynfilter::tools::addModelOptions(app, model_cli);
   CLI11_PARSE(app, argc, argv);
 
   try {
     dynfilter::io::RetargetMapping mapping = dynfilter::io::readRetargetMapping(mapping_path);
     if (clamp) mapping.clamp_to_limits = true;
     if (allow_unmapped) mapping.allow_unmapped = true;
-    auto model = dynfilter::loadModel(backend, model_path, {});
+    auto model = dynfilter::makeModel(backend, dynfilter::tools::loadRobot(model_path, model_cli), {});
     const dynfilter::io::RetargetResult result =
         dynfilter::io::retargetBvhFile(bvh_path, mapping, *model);
 
