@@ -154,7 +154,6 @@ const char* toString(MessageError error) {
     case MessageError::kDuplicateBody: return "kDuplicateBody";
     case MessageError::kNonFinite: return "kNonFinite";
     case MessageError::kNonUnitQuaternion: return "kNonUnitQuaternion";
-    case MessageError::kTimeWentBackwards: return "kTimeWentBackwards";
   }
   return "unknown MessageError";
 }
@@ -294,8 +293,6 @@ MessageCheck ReferenceFrameReader::convert(const reference_frame_t& msg, Referen
   const bool has_task = msg.has_task_target != 0;
   if (has_task && !unitQuaternion(msg.task_quaternion))
     return fail(MessageError::kNonUnitQuaternion, "task quaternion not unit");
-  if (has_previous_ && msg.utime < previous_utime_)
-    return fail(MessageError::kTimeWentBackwards, "utime before the previous frame's");
 
   // Accepted: write the output.
   ReferenceFrame& frame = out.frame;
@@ -340,8 +337,6 @@ MessageCheck ReferenceFrameReader::convert(const reference_frame_t& msg, Referen
     out.contact_hint_bodies[k] = hint_scratch_[k];
     out.contact_hint_active[k] = msg.contact_hint_active[k] != 0 ? 1 : 0;
   }
-  has_previous_ = true;
-  previous_utime_ = msg.utime;
   return {};
 }
 
@@ -396,8 +391,6 @@ MessageCheck RobotStateReader::convert(const robot_state_t& msg, RobotStateInput
   }
   if (info_.floating_base && !unitQuaternion(msg.base_quaternion))
     return fail(MessageError::kNonUnitQuaternion, "base quaternion not unit");
-  if (has_previous_ && msg.utime < previous_utime_)
-    return fail(MessageError::kTimeWentBackwards, "utime before the previous state's");
 
   resizeIfNeeded(out.q, info_.nq);
   resizeIfNeeded(out.v, info_.nv);
@@ -419,8 +412,6 @@ MessageCheck RobotStateReader::convert(const robot_state_t& msg, RobotStateInput
     out.tau[j] = msg.tau[k];
   }
   out.utime = msg.utime;
-  has_previous_ = true;
-  previous_utime_ = msg.utime;
   return {};
 }
 
@@ -619,6 +610,10 @@ void fillFilterStatus(const FilterOutput& output, const StatusReport& report,
   msg.ticks = report.ticks;
   msg.missed_ticks = report.missed_ticks;
   msg.reseeds = report.reseeds;
+  msg.reference_streams = report.reference_streams;
+  msg.states_received = report.states_received;
+  msg.states_rejected = report.states_rejected;
+  msg.state_streams = report.state_streams;
 }
 
 }  // namespace dynfilter::messages
