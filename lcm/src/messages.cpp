@@ -544,7 +544,7 @@ void describeStatus(std::uint32_t status, std::string& out) {
   static constexpr const char* kBitNames[] = {
       "contact overflow", "rank deficient", "non-finite solve", "reference invalid",
       "re-seeded",        "impact",         "torque clamped",   "stale reference",
-      "QP fallback",      "QP relaxed"};
+      "QP fallback",      "QP relaxed",       "QP iteration cap"};
   constexpr std::uint32_t kKnownBits = (1u << (sizeof kBitNames / sizeof kBitNames[0])) - 1u;
   out.clear();
   if (status == kStatusOk) {

@@ -31,6 +31,10 @@ enum FilterStatusBits : std::uint32_t {
   /// QP mode: the full QP was infeasible; this tick's answer is that of a relaxation
   /// (FilterOutput::qp_relaxation; FilterOutput::qp_violated says what the full QP violated).
   kStatusQpRelaxed = 1u << 9,
+  /// QP mode: a QP solve of this tick stopped at its iteration cap (QpSolverSettings::
+  /// max_iterations); its iterate was used if it passed the constraint check, else the
+  /// fallback above.
+  kStatusQpIterationLimit = 1u << 10,
 };
 
 /// Why the state was re-seeded from the reference (with kStatusReseeded).
