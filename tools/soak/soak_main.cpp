@@ -290,7 +290,7 @@ std::string joined(const std::vector<std::string>& args) {
 
 const char* kBitNames[] = {"contact overflow", "rank deficient", "non-finite solve", "reference invalid",
                            "re-seeded", "impact", "torque clamped", "stale reference",
-                           "QP fallback", "QP relaxed"};
+                           "QP fallback", "QP relaxed", "QP iteration cap"};
 
 struct Check {
   std::string name, criterion, measured;
