@@ -186,7 +186,9 @@ TEST(LcmProcesses, FilterSimAndReplayRunTogether) {
 // drives apply the filter's torques alone (no servo), and the QP-mode filter starts every
 // tick from the robot's measured state. The robot must follow the squat (pelvis 0.877 to
 // 0.929 m) without tipping, at the robot's 1 kHz.
-TEST(LcmProcesses, TheRobotStandsAndSquatsWithTheLoopClosed) {
+class LcmClosedLoop : public testing::TestWithParam<std::string> {};
+
+TEST_P(LcmClosedLoop, TheRobotStandsAndSquatsWithTheLoopClosed) {
   auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const ModelInfo& info = model->info();
   const std::string url = uniqueUrl();
@@ -194,7 +196,7 @@ TEST(LcmProcesses, TheRobotStandsAndSquatsWithTheLoopClosed) {
   // The filter first: the robot's drives go limp without commands.
   Child filter({bin("dynfilter"), "--mode", "qp", "--use-measured-state"}, url);
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-  Child sim({bin("dynfilter-sim"), "--backend", "ode", "--servo-error-rad", "0"}, url);
+  Child sim({bin("dynfilter-sim"), "--backend", GetParam(), "--servo-error-rad", "0"}, url);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   Child replay({bin("dynfilter-replay"), test::sourcePath("data/squat_reference.csv"), "--loop"}, url);
   std::this_thread::sleep_for(std::chrono::seconds(1));
@@ -228,6 +230,10 @@ TEST(LcmProcesses, TheRobotStandsAndSquatsWithTheLoopClosed) {
   EXPECT_EQ(monitor.degraded_statuses, 0) << monitor.last_status.reason;
   EXPECT_EQ(monitor.last_status.mode, "qp");
 }
+
+// The robot on ODE's engine and on DART's (with the settings dynfilter-sim chooses for it).
+INSTANTIATE_TEST_SUITE_P(Engines, LcmClosedLoop, testing::Values("ode", "dart"),
+                         [](const testing::TestParamInfo<std::string>& p) { return p.param; });
 
 // Sends bad reference frames to a running filter and checks that each is rejected with
 // its reason, counted, and that good commands keep coming.
