@@ -8,9 +8,9 @@
 // Measured while building it (2026-11-23, the shipped 120 Hz squat): open loop (the filter
 // on its own state) the robot tips within 0.6 s — standing is unstable and nothing feeds
 // the base back; closed loop it tracks for the whole clip. DART's engine as the robot, with
-// the settings dynfilter-sim chooses for it (tools/processes/robot_engine.hpp: four
-// substeps a tick, contact CFM 1e-3), tracks as well; with DART's defaults (one 1 ms step,
-// CFM 1e-5) its Bullet/LCP contacts rock the feet and it falls within 1 s (checked below).
+// the settings dynfilter-sim chooses for it (tools/processes/robot_engine.hpp: contact
+// CFM 1e-3), tracks as well; with DART's defaults (CFM 1e-5) its Bullet/LCP contacts rock
+// the feet and it falls within 1 s (checked below).
 #include <cmath>
 #include <memory>
 #include <string>

@@ -389,8 +389,14 @@ TEST(LcmProcesses, ReplayStreamsABvhCapture) {
   EXPECT_GT(valid.load(), 120) << "about 120 Hz for a good part of 1.5 s";
   std::lock_guard<std::mutex> lock(mutex);
   ASSERT_EQ(first_q.size(), info.nq);
-  EXPECT_LT((first_q - expected.motion.frames.front().q).cwiseAbs().maxCoeff(), 0.05)
-      << "the stream starts at the clip's first frame";
+  // The replay plays in real time from its start: under load its first publish comes a
+  // little into the clip. The first frame must be one of the clip's first 0.25 s.
+  double nearest = 1e9;
+  for (const ReferenceFrame& f : expected.motion.frames) {
+    if (f.time_s - expected.motion.frames.front().time_s > 0.25) break;
+    nearest = std::min(nearest, (first_q - f.q).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(nearest, 0.02) << "the stream starts at the clip's beginning (interpolated)";
 }
 
 }  // namespace

@@ -97,8 +97,7 @@ int main(int argc, char** argv) {
                "bring-up; the filter still plans the free-floating robot)");
   int substeps = 0;
   app.add_option("--substeps", substeps,
-                 "engine steps per tick (0: the engine's own choice on the ground, "
-                 "robot_engine.hpp: DART 4, ODE 1; 1 on the harness)")
+                 "engine steps per tick (0: the engine's own choice, robot_engine.hpp: 1)")
       ->check(CLI::Range(0, 100));
   int cpu = -1;
   app.add_option("--cpu", cpu, "run the whole process on this CPU only (e.g. one of its own: "
@@ -117,7 +116,7 @@ int main(int argc, char** argv) {
     }
     // Before the model: DART's contact softness is process-wide.
     const processes::RobotEngineSettings engine = processes::useAsRobot(backend);
-    if (substeps == 0) substeps = harness ? 1 : engine.substeps;  // no contacts on the stand
+    if (substeps == 0) substeps = engine.substeps;
     auto model = loadModel(backend, model_path, model_options);
     const ModelInfo& info = model->info();
     // On the harness the robot still reports a free-floating state, its base held at the
