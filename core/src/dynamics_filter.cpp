@@ -388,18 +388,20 @@ std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
                        (report.contacts_released ? 4u : 0u);
   out_.qp_violated = out_.qp_relaxation != 0 ? report.violated_first : report.violated;
   out_.counters.qp_iterations += static_cast<std::uint64_t>(std::max(0, report.info.iterations));
+  const std::uint32_t capped =
+      report.info.status == QpSolveStatus::kMaxIterations ? kStatusQpIterationLimit : kStatusOk;
   if (report.ok) {
     ++out_.counters.qp_solves;
-    if (out_.qp_relaxation == 0) return kStatusOk;
+    if (out_.qp_relaxation == 0) return capped;
     ++out_.counters.qp_relaxed;
     if (report.contacts_released) links_.releaseAll();
-    return kStatusQpRelaxed;
+    return kStatusQpRelaxed | capped;
   }
   out_.qp_violated |= report.violated;
   // Fallback: the paper's solve, torques clamped to their limits, then Eq. 14 with the
   // clamped torques so that Eq. 12 still holds for what is published.
   ++out_.counters.qp_fallbacks;
-  std::uint32_t status = kStatusQpFallback;
+  std::uint32_t status = kStatusQpFallback | capped;
   status |= solvePaper(H_C, u_C, tau_C);
   const Eigen::VectorXd& tau_max = model_.info().tau_max;
   bool clamped = false;

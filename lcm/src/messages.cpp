@@ -154,7 +154,6 @@ const char* toString(MessageError error) {
     case MessageError::kDuplicateBody: return "kDuplicateBody";
     case MessageError::kNonFinite: return "kNonFinite";
     case MessageError::kNonUnitQuaternion: return "kNonUnitQuaternion";
-    case MessageError::kTimeWentBackwards: return "kTimeWentBackwards";
   }
   return "unknown MessageError";
 }
@@ -294,8 +293,6 @@ MessageCheck ReferenceFrameReader::convert(const reference_frame_t& msg, Referen
   const bool has_task = msg.has_task_target != 0;
   if (has_task && !unitQuaternion(msg.task_quaternion))
     return fail(MessageError::kNonUnitQuaternion, "task quaternion not unit");
-  if (has_previous_ && msg.utime < previous_utime_)
-    return fail(MessageError::kTimeWentBackwards, "utime before the previous frame's");
 
   // Accepted: write the output.
   ReferenceFrame& frame = out.frame;
@@ -340,8 +337,6 @@ MessageCheck ReferenceFrameReader::convert(const reference_frame_t& msg, Referen
     out.contact_hint_bodies[k] = hint_scratch_[k];
     out.contact_hint_active[k] = msg.contact_hint_active[k] != 0 ? 1 : 0;
   }
-  has_previous_ = true;
-  previous_utime_ = msg.utime;
   return {};
 }
 
@@ -396,8 +391,6 @@ MessageCheck RobotStateReader::convert(const robot_state_t& msg, RobotStateInput
   }
   if (info_.floating_base && !unitQuaternion(msg.base_quaternion))
     return fail(MessageError::kNonUnitQuaternion, "base quaternion not unit");
-  if (has_previous_ && msg.utime < previous_utime_)
-    return fail(MessageError::kTimeWentBackwards, "utime before the previous state's");
 
   resizeIfNeeded(out.q, info_.nq);
   resizeIfNeeded(out.v, info_.nv);
@@ -419,8 +412,6 @@ MessageCheck RobotStateReader::convert(const robot_state_t& msg, RobotStateInput
     out.tau[j] = msg.tau[k];
   }
   out.utime = msg.utime;
-  has_previous_ = true;
-  previous_utime_ = msg.utime;
   return {};
 }
 
@@ -549,21 +540,29 @@ void fillContactState(const ModelInfo& info, const FilterOutput& output, std::in
   }
 }
 
+namespace {
+constexpr const char* kStatusBitNames[] = {
+    "contact overflow", "rank deficient", "non-finite solve", "reference invalid",
+    "re-seeded",        "impact",         "torque clamped",   "stale reference",
+    "QP fallback",      "QP relaxed",     "reference infeasible", "QP iteration cap"};
+constexpr int kStatusBitCount = static_cast<int>(sizeof kStatusBitNames / sizeof kStatusBitNames[0]);
+}  // namespace
+
+const char* statusBitName(int bit) {
+  return bit >= 0 && bit < kStatusBitCount ? kStatusBitNames[bit] : nullptr;
+}
+
 void describeStatus(std::uint32_t status, std::string& out) {
-  static constexpr const char* kBitNames[] = {
-      "contact overflow", "rank deficient", "non-finite solve", "reference invalid",
-      "re-seeded",        "impact",         "torque clamped",   "stale reference",
-      "QP fallback",      "QP relaxed"};
-  constexpr std::uint32_t kKnownBits = (1u << (sizeof kBitNames / sizeof kBitNames[0])) - 1u;
+  constexpr std::uint32_t kKnownBits = (1u << kStatusBitCount) - 1u;
   out.clear();
   if (status == kStatusOk) {
     out += "ok";
     return;
   }
-  for (std::size_t bit = 0; bit < sizeof kBitNames / sizeof kBitNames[0]; ++bit) {
+  for (int bit = 0; bit < kStatusBitCount; ++bit) {
     if ((status & (1u << bit)) == 0) continue;
     if (!out.empty()) out += "; ";
-    out += kBitNames[bit];
+    out += kStatusBitNames[bit];
   }
   if ((status & ~kKnownBits) != 0) {
     if (!out.empty()) out += "; ";
@@ -619,6 +618,10 @@ void fillFilterStatus(const FilterOutput& output, const StatusReport& report,
   msg.ticks = report.ticks;
   msg.missed_ticks = report.missed_ticks;
   msg.reseeds = report.reseeds;
+  msg.reference_streams = report.reference_streams;
+  msg.states_received = report.states_received;
+  msg.states_rejected = report.states_rejected;
+  msg.state_streams = report.state_streams;
 }
 
 }  // namespace dynfilter::messages

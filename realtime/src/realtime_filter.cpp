@@ -4,6 +4,18 @@
 #include <cmath>
 
 namespace dynfilter::realtime {
+namespace {
+
+StreamOptions streamOptions(const RealtimeOptions& options, double silence_s) {
+  StreamOptions s;
+  s.clock_tolerance_s = options.clock_tolerance_s;
+  s.new_stream_messages = options.new_stream_messages;
+  s.max_clock_offset_s = options.max_clock_offset_s;
+  s.silence_s = silence_s;
+  return s;
+}
+
+}  // namespace
 
 RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,
                                const RealtimeOptions& options, const ReferenceFrame& hold_posture,
@@ -12,6 +24,8 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
       options_(options),
       filter_(model, filter_options, qp_solver),
       buffer_(model.nq(), model.nv(), model.info().floating_base),
+      references_(streamOptions(options, options.stale_timeout_s)),
+      states_(streamOptions(options, options.measured_state_timeout_s)),
       hold_(hold_posture),
       sample_(model.nq(), model.nv()),
       command_(Eigen::VectorXd::Zero(model.nj())),
@@ -20,8 +34,14 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
   filter_.reset(hold_);
 }
 
-bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s) {
-  if (stale_) {
+bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s,
+                                  std::int64_t sequence) {
+  const StreamVerdict verdict = references_.judge(frame.time_s, now_s, sequence);
+  if (!accepted(verdict)) {
+    ++counters_.frames_rejected;
+    return false;
+  }
+  if (stale_ || verdict == StreamVerdict::kNewStream) {
     // (Re)start on this stream: its clock against ours, an empty history.
     buffer_.clear();
     clock_offset_s_ = now_s - frame.time_s;
@@ -39,11 +59,14 @@ bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s) {
   return true;
 }
 
-void RealtimeFilter::addMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
-                                      const Eigen::Ref<const Eigen::VectorXd>& v, double now_s) {
+bool RealtimeFilter::addMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                      const Eigen::Ref<const Eigen::VectorXd>& v,
+                                      double stamp_s, double now_s) {
+  if (!accepted(states_.judge(stamp_s, now_s))) return false;
   measured_q_ = q;
   measured_v_ = v;
   measured_local_s_ = now_s;
+  return true;
 }
 
 const FilterOutput& RealtimeFilter::tick(double now_s) {

@@ -239,7 +239,7 @@ TEST(Allocation, RealtimeTickAndReferenceIntakeAllocateNothing) {
   for (int k = 50; k < 450; ++k) {
     const ReferenceFrame& f = frames[static_cast<std::size_t>(k)];
     if (k % 8 == 0) rt.addReference(f, 0.001 * k);
-    rt.addMeasuredState(f.q, f.v, 0.001 * k);
+    rt.addMeasuredState(f.q, f.v, 0.001 * k, 0.001 * k);
     rt.tick(0.001 * k);
   }
   g_counting = false;

@@ -1,6 +1,7 @@
 // The ProxQP adapter (dynfilter::proxqp::makeSolver) on small dense QPs whose answers are
 // worked out by hand from the KKT conditions.
 #include <memory>
+#include <random>
 #include <stdexcept>
 
 #include <gtest/gtest.h>
@@ -146,6 +147,46 @@ TEST(ProxQpAdapter, InfeasibleProblemIsNotReportedSolved) {
   // The next solve of the same instance (no warm start from a failure) fails the same way.
   const QpSolveInfo again = solver->solve(qp, x);
   EXPECT_NE(again.status, QpSolveStatus::kSolved);
+}
+
+// The cap bounds a solve's work: max_iterations outer iterations of at most 5 Newton steps
+// (+1 for the step that finds the inner loop done) each, whatever the problem. Here a cold
+// solve of 40 variables against 120 random half-spaces, many of them active, which takes
+// ProxQP well over 12 Newton steps uncapped.
+TEST(ProxQpAdapter, TheIterationCapBoundsTheNewtonStepsAndSaysSo) {
+  const int n = 40, n_in = 120;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  DenseQp qp(n, 1, n_in);
+  qp.H.setIdentity();
+  for (int i = 0; i < n; ++i) qp.g[i] = 10.0 * normal(rng);
+  qp.A.setOnes();
+  qp.b << 1.0;
+  for (int r = 0; r < n_in; ++r)
+    for (int i = 0; i < n; ++i) qp.C(r, i) = normal(rng);
+  qp.l.setConstant(-kQpInfinity);
+  qp.u.setConstant(1.0);
+  qp.x_lower.setConstant(-kQpInfinity);
+  qp.x_upper.setConstant(kQpInfinity);
+  QpSolverSettings uncapped;
+  uncapped.eps_abs = 1e-10;
+  uncapped.max_iterations = 1000;
+  auto reference = proxqp::makeSolver(n, 1, n_in, uncapped);
+  Eigen::VectorXd x_ref(n);
+  const QpSolveInfo full = reference->solve(qp, x_ref);
+  ASSERT_EQ(full.status, QpSolveStatus::kSolved);
+  RecordProperty("uncapped_iterations", full.iterations);
+  ASSERT_GT(full.iterations, 12) << "the problem must need more than the caps allow";
+  for (const int cap : {1, 2}) {
+    QpSolverSettings capped = uncapped;
+    capped.max_iterations = cap;
+    auto solver = proxqp::makeSolver(n, 1, n_in, capped);
+    Eigen::VectorXd x(n);
+    const QpSolveInfo info = solver->solve(qp, x);
+    EXPECT_LE(info.iterations, cap * 6) << "cap " << cap;
+    EXPECT_EQ(info.status, QpSolveStatus::kMaxIterations) << "cap " << cap;
+    EXPECT_TRUE(x.allFinite());
+  }
 }
 
 TEST(ProxQpAdapter, InvalidDimensionsAndSettingsThrow) {

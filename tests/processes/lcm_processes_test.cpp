@@ -2,6 +2,7 @@
 // and dynfilter-replay run together; a separate subscriber decodes what arrives.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -63,6 +64,12 @@ struct Monitor {
     std::lock_guard<std::mutex> lock(mutex);
     last_status = *m;
     ++statuses;
+    if (tracking_armed && !have_first_armed_status) {
+      first_armed_status = *m;
+      have_first_armed_status = true;
+    }
+    if (tracking_armed) slot_errors.push_back(static_cast<double>(m->utime) * 1e-3 -
+                                              static_cast<double>(m->ticks + m->missed_ticks));
     if (m->status & kStatusNonFinite) ++non_finite;
     if (tracking_armed && (m->status & (kStatusQpFallback | kStatusReseeded))) ++degraded_statuses;
   }
@@ -91,6 +98,8 @@ struct Monitor {
     {
       std::lock_guard<std::mutex> lock(mutex);
       command_times.clear();
+      slot_errors.clear();
+      have_first_armed_status = false;
       tracking_armed = true;
     }
     const auto start = std::chrono::steady_clock::now();
@@ -103,6 +112,11 @@ struct Monitor {
   std::atomic<bool> stop{false};
   std::mutex mutex;
   std::vector<double> command_times;
+  // Per status while armed: the tick's time in 1 ms periods minus the periods accounted
+  // for (ticks + missed ticks). Constant up to the delay of each status behind its slot.
+  std::vector<double> slot_errors;
+  filter_status_t first_armed_status;  // the first status of the window
+  bool have_first_armed_status = false;
   long bad_torques = 0, statuses = 0, states = 0, non_finite = 0;
   bool tracking_armed = false;
   double max_tracking_error = 0.0;
@@ -142,8 +156,21 @@ TEST(LcmProcesses, FilterSimAndReplayRunTogether) {
     EXPECT_LT(monitor.max_tracking_error, 0.05) << "simulated robot vs filtered joints (rad)";
   }
   const double rate = static_cast<double>(commands) / window;
-  RecordProperty("command_rate_hz", std::to_string(rate));
-  EXPECT_NEAR(rate, 1000.0, 20.0) << "within 2 % of the set rate";
+  RecordProperty("command_rate_hz", std::to_string(rate));  // the speed is benchmarked
+  // Accounting, which load alone cannot break: every 1 ms period of the window is a tick or
+  // a counted missed tick. A status is stamped at or after its period's slot, so the
+  // smallest (time − periods accounted) over each half of the window is the clock's origin
+  // (a tick that was not delayed); periods lost or ticks run too fast would move it.
+  {
+    std::lock_guard<std::mutex> lock(monitor.mutex);
+    const std::vector<double>& e = monitor.slot_errors;
+    ASSERT_GT(e.size(), 1000u) << "status messages arrive";
+    const auto half = e.begin() + static_cast<std::ptrdiff_t>(e.size() / 2);
+    const double first = *std::min_element(e.begin(), half);
+    const double second = *std::min_element(half, e.end());
+    EXPECT_NEAR(second, first, 2.0) << "periods neither lost nor invented";
+    EXPECT_GE(static_cast<std::int64_t>(status.ticks), commands) << "one command per tick at most";
+  }
   EXPECT_EQ(status.status & (kStatusNonFinite | kStatusReferenceInvalid | kStatusStaleReference), 0)
       << status.reason;
   EXPECT_GT(status.frames_accepted, 1000);
@@ -159,7 +186,9 @@ TEST(LcmProcesses, FilterSimAndReplayRunTogether) {
 // drives apply the filter's torques alone (no servo), and the QP-mode filter starts every
 // tick from the robot's measured state. The robot must follow the squat (pelvis 0.877 to
 // 0.929 m) without tipping, at the robot's 1 kHz.
-TEST(LcmProcesses, TheRobotStandsAndSquatsWithTheLoopClosed) {
+class LcmClosedLoop : public testing::TestWithParam<std::string> {};
+
+TEST_P(LcmClosedLoop, TheRobotStandsAndSquatsWithTheLoopClosed) {
   auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const ModelInfo& info = model->info();
   const std::string url = uniqueUrl();
@@ -167,7 +196,7 @@ TEST(LcmProcesses, TheRobotStandsAndSquatsWithTheLoopClosed) {
   // The filter first: the robot's drives go limp without commands.
   Child filter({bin("dynfilter"), "--mode", "qp", "--use-measured-state"}, url);
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-  Child sim({bin("dynfilter-sim"), "--backend", "ode", "--servo-error-rad", "0"}, url);
+  Child sim({bin("dynfilter-sim"), "--backend", GetParam(), "--servo-error-rad", "0"}, url);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   Child replay({bin("dynfilter-replay"), test::sourcePath("data/squat_reference.csv"), "--loop"}, url);
   std::this_thread::sleep_for(std::chrono::seconds(1));
@@ -177,12 +206,20 @@ TEST(LcmProcesses, TheRobotStandsAndSquatsWithTheLoopClosed) {
   RecordProperty("max_base_z_m", std::to_string(monitor.max_base_z));
   RecordProperty("max_tilt_rad", std::to_string(monitor.max_tilt_rad));
   const double rate = static_cast<double>(monitor.command_times.size()) / window;
-  RecordProperty("command_rate_hz", std::to_string(rate));
-  // Ticks follow the robot's states: a state overwritten before the filter ran gets no
-  // command (measured 999 Hz on an idle machine, 954 Hz while it also compiled). The 2 %
-  // rate requirement is the clock-driven test's above.
-  EXPECT_GT(rate, 900.0) << "the robot's state messages set the rate";
-  EXPECT_LT(rate, 1010.0);
+  RecordProperty("command_rate_hz", std::to_string(rate));  // the speed is benchmarked
+  // Ticks follow the robot's states. Accounting, which load alone cannot break: every
+  // state the filter received in the window was answered by a tick, counted as overwritten
+  // before the filter ran (missed_ticks in this mode), or rejected; none vanished.
+  ASSERT_TRUE(monitor.have_first_armed_status);
+  const filter_status_t& a = monitor.first_armed_status;
+  const filter_status_t& b = monitor.last_status;
+  const std::int64_t states = b.states_received - a.states_received;
+  EXPECT_GT(states, 1000) << "the robot's states arrive";
+  EXPECT_LE(states, (b.ticks - a.ticks) + (b.missed_ticks - a.missed_ticks) +
+                        (b.states_rejected - a.states_rejected) + 1)
+      << "a state neither answered nor counted";
+  EXPECT_EQ(b.states_rejected, 0) << b.reason;
+  RecordProperty("state_streams", std::to_string(b.state_streams));
   EXPECT_EQ(monitor.bad_torques, 0);
   EXPECT_EQ(monitor.non_finite, 0);
   // Measured: pelvis 0.877–0.929 m, tilt ~1e-9 rad (the squat's own pelvis does not tilt).
@@ -193,6 +230,10 @@ TEST(LcmProcesses, TheRobotStandsAndSquatsWithTheLoopClosed) {
   EXPECT_EQ(monitor.degraded_statuses, 0) << monitor.last_status.reason;
   EXPECT_EQ(monitor.last_status.mode, "qp");
 }
+
+// The robot on ODE's engine and on DART's (with the settings dynfilter-sim chooses for it).
+INSTANTIATE_TEST_SUITE_P(Engines, LcmClosedLoop, testing::Values("ode", "dart"),
+                         [](const testing::TestParamInfo<std::string>& p) { return p.param; });
 
 // Sends bad reference frames to a running filter and checks that each is rejected with
 // its reason, counted, and that good commands keep coming.
@@ -207,11 +248,17 @@ TEST(LcmProcesses, BadReferenceFramesAreRejectedAndTheFilterKeepsPublishing) {
   ReferenceFrame good(info.nq, info.nv);
   good.q = info.neutralConfiguration();
   good.q[2] = 0.93;
-  std::int64_t utime = 1000000, sequence = 0;
+  // The sender's clock: its own steady clock, 1000 s ahead of ours.
+  const auto t0 = std::chrono::steady_clock::now();
+  auto senderUtime = [&]() {
+    return 1000000000 + std::chrono::duration_cast<std::chrono::microseconds>(
+                            std::chrono::steady_clock::now() - t0).count();
+  };
+  std::int64_t utime = 0, sequence = 0;
   auto send = [&](const reference_frame_t& m) { sender.publish(messages::kReferenceChannel, &m); };
   auto goodFrame = [&]() {
     reference_frame_t m;
-    messages::fillReferenceFrame(info, good, utime += 10000, ++sequence, m);
+    messages::fillReferenceFrame(info, good, utime = senderUtime(), ++sequence, m);
     return m;
   };
   for (int k = 0; k < 20; ++k) {
@@ -229,7 +276,8 @@ TEST(LcmProcesses, BadReferenceFramesAreRejectedAndTheFilterKeepsPublishing) {
       {"NaN", [](reference_frame_t& m) { m.q[5] = std::nan(""); }, "finite"},
       {"Inf", [](reference_frame_t& m) { m.base_position[0] = INFINITY; }, "finite"},
       {"non-unit quaternion", [](reference_frame_t& m) { m.base_quaternion[0] = 1.1; }, "quaternion"},
-      {"time going backwards", [&](reference_frame_t& m) { m.utime = utime - 500000; }, "before the previous"},
+      {"stamped an hour ahead", [&](reference_frame_t& m) { m.utime += 3600000000LL; }, "off the stream's clock"},
+      {"a stray old frame", [&](reference_frame_t& m) { m.utime -= 100000; }, "not after the previous"},
   };
   long rejected_before = 0;
   {
@@ -259,9 +307,34 @@ TEST(LcmProcesses, BadReferenceFramesAreRejectedAndTheFilterKeepsPublishing) {
   // A frame brings it back.
   send(goodFrame());
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::int64_t streams = 0;
   {
     std::lock_guard<std::mutex> lock(monitor.mutex);
     EXPECT_FALSE(monitor.last_status.status & kStatusStaleReference) << monitor.last_status.reason;
+    streams = monitor.last_status.reference_streams;
+    EXPECT_GE(streams, 2) << "after the silence, a new stream";
+  }
+  // The sender restarts: its clock and sequence numbers begin again at 0. Its third frame
+  // is followed (a new stream), long before the stale timeout.
+  const auto restart = std::chrono::steady_clock::now();
+  sequence = 0;
+  for (int k = 0; k < 3; ++k) {
+    reference_frame_t m;
+    messages::fillReferenceFrame(info, good,
+                                 std::chrono::duration_cast<std::chrono::microseconds>(
+                                     std::chrono::steady_clock::now() - restart).count(),
+                                 ++sequence, m);
+    send(m);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  {
+    std::lock_guard<std::mutex> lock(monitor.mutex);
+    EXPECT_EQ(monitor.last_status.reference_streams, streams + 1) << monitor.last_status.reason;
+    EXPECT_FALSE(monitor.last_status.status & kStatusStaleReference) << monitor.last_status.reason;
+    EXPECT_EQ(monitor.last_status.frames_received, monitor.last_status.frames_accepted +
+                                                       monitor.last_status.frames_rejected +
+                                                       monitor.last_status.frames_dropped);
   }
   EXPECT_EQ(filter.stop(), 0);
 }
@@ -316,8 +389,14 @@ TEST(LcmProcesses, ReplayStreamsABvhCapture) {
   EXPECT_GT(valid.load(), 120) << "about 120 Hz for a good part of 1.5 s";
   std::lock_guard<std::mutex> lock(mutex);
   ASSERT_EQ(first_q.size(), info.nq);
-  EXPECT_LT((first_q - expected.motion.frames.front().q).cwiseAbs().maxCoeff(), 0.05)
-      << "the stream starts at the clip's first frame";
+  // The replay plays in real time from its start: under load its first publish comes a
+  // little into the clip. The first frame must be one of the clip's first 0.25 s.
+  double nearest = 1e9;
+  for (const ReferenceFrame& f : expected.motion.frames) {
+    if (f.time_s - expected.motion.frames.front().time_s > 0.25) break;
+    nearest = std::min(nearest, (first_q - f.q).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(nearest, 0.02) << "the stream starts at the clip's beginning (interpolated)";
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
 // The filter as a 1 kHz control loop fed by a slower reference stream.
+#include <algorithm>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -102,6 +103,145 @@ TEST_F(Realtime, FramesGoingBackInTimeAreRejected) {
   f.time_s -= 0.01;
   EXPECT_FALSE(rt.addReference(f, 0.001));
   EXPECT_EQ(rt.counters().frames_rejected, 1u);
+  EXPECT_EQ(rt.referenceStream().lastRejection(), StreamVerdict::kNotAfterPrevious);
+}
+
+// Streams: the real sender sends the simulated motion at 60 Hz (every 16 ticks of 1 ms),
+// stamped motion time + offset(tick) on its clock (the offset changes when it restarts);
+// inject(tick, now) may send other frames. The filter ticks at 1 kHz. From check_from on,
+// no tick may be stale; returns the worst joint error of the sampled reference against
+// the motion at the sample's time on the real sender's clock.
+template <class Offset, class Inject>
+double runStream(RealtimeFilter& rt, const std::vector<ReferenceFrame>& frames, int ticks,
+                 int check_from, Offset&& offset, Inject&& inject) {
+  const int nj = static_cast<int>(frames.front().q.size()) - 7;
+  double worst = 0.0;
+  for (int tick = 0; tick < ticks; ++tick) {
+    const double now = 0.001 * tick;
+    inject(tick, now);
+    if (tick % 16 == 0) {
+      ReferenceFrame f = frames[static_cast<std::size_t>(tick)];
+      f.time_s += offset(tick);
+      rt.addReference(f, now, tick / 16);
+    }
+    rt.tick(now);
+    if (tick < check_from) continue;
+    EXPECT_FALSE(rt.status() & kStatusStaleReference) << "tick " << tick;
+    const double motion_time = rt.lastReference().time_s - offset(tick);
+    const long i = std::clamp(std::lround(motion_time * 1000.0), 0L,
+                              static_cast<long>(frames.size()) - 1);
+    worst = std::max(worst, (rt.lastReference().q - frames[static_cast<std::size_t>(i)].q)
+                                .tail(nj).cwiseAbs().maxCoeff());
+  }
+  return worst;
+}
+
+constexpr double kHour = 3600.0;
+
+TEST_F(Realtime, OneFutureStampedFrameDoesNotInterruptTheRealStream) {
+  RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
+  bool rejected = true;
+  const double worst = runStream(
+      rt, frames_, 1400, 100, [](int) { return kSenderClock; },
+      [&](int tick, double now) {
+        if (tick != 500) return;
+        ReferenceFrame bogus = frames_[500];
+        bogus.time_s += kSenderClock + kHour;
+        bogus.q.tail(model_->nj()).array() += 0.5;  // and far from the motion
+        rejected = !rt.addReference(bogus, now, 12345);
+      });
+  EXPECT_TRUE(rejected);
+  EXPECT_LT(worst, 2e-3) << "the sample follows the real stream throughout";
+  EXPECT_EQ(rt.referenceStream().counters().streams, 1u);
+  EXPECT_EQ(rt.referenceStream().lastRejection(), StreamVerdict::kOffStreamClock);
+  EXPECT_EQ(rt.counters().frames_rejected, 1u);
+  EXPECT_EQ(rt.counters().stale_ticks, 0u);
+}
+
+TEST_F(Realtime, AFutureStampedFirstFrameThenTheRealStreamIsTrackedWithinTheStaleTimeout) {
+  RealtimeOptions options;
+  ASSERT_EQ(options.stale_timeout_s, 0.25);
+  RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
+  const double worst = runStream(
+      rt, frames_, 1000, 150, [](int) { return kSenderClock; },
+      [&](int tick, double now) {
+        if (tick != 0) return;
+        ReferenceFrame bogus = frames_[0];
+        bogus.time_s += kSenderClock + kHour;
+        EXPECT_TRUE(rt.addReference(bogus, now, 0)) << "nothing to tell it from yet";
+      });
+  // Two real frames are evidence, the third (tick 32) starts the stream; 50 ms of delay
+  // later the sample is on it: well within the 0.25 s stale timeout.
+  EXPECT_LT(worst, 2e-3);
+  EXPECT_EQ(rt.referenceStream().counters().streams, 2u);
+  EXPECT_EQ(rt.counters().frames_rejected, 2u);
+  EXPECT_EQ(rt.counters().stale_ticks, 0u);
+}
+
+TEST_F(Realtime, ARestartedSenderIsFollowedWithinTheStaleTimeout) {
+  RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
+  // At tick 608 the sender restarts: its clock (and sequence) start again at 0.
+  auto offset = [](int tick) { return tick < 608 ? kSenderClock : -0.608; };
+  double worst = runStream(rt, frames_, 600, 100, offset, [](int, double) {});
+  EXPECT_LT(worst, 2e-3);
+  // The restart: 2 frames of evidence, the third (tick 640) is followed; allow its 50 ms
+  // of reference delay, then the sample must be the restarted stream's.
+  for (int tick = 600; tick < 1400; ++tick) {
+    const double now = 0.001 * tick;
+    if (tick % 16 == 0) {
+      ReferenceFrame f = frames_[static_cast<std::size_t>(tick)];
+      f.time_s += offset(tick);
+      rt.addReference(f, now, (tick - 608) / 16);
+    }
+    rt.tick(now);
+    EXPECT_FALSE(rt.status() & kStatusStaleReference) << "tick " << tick;
+    if (tick < 608 + 150) continue;
+    const double motion_time = rt.lastReference().time_s - offset(tick);
+    const auto i = static_cast<std::size_t>(std::lround(motion_time * 1000.0));
+    ASSERT_LT(i, frames_.size()) << "tick " << tick << ": sampling the old stream's clock";
+    worst = std::max(worst, (rt.lastReference().q - frames_[i].q).tail(model_->nj()).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(worst, 2e-3);
+  EXPECT_EQ(rt.referenceStream().counters().streams, 2u);
+  EXPECT_EQ(rt.counters().frames_rejected, 2u);
+  EXPECT_EQ(rt.counters().stale_ticks, 0u);
+}
+
+TEST_F(Realtime, AStrayOldFrameInsideALiveStreamIsRejected) {
+  RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
+  int strays_accepted = 0;
+  const double worst = runStream(
+      rt, frames_, 1400, 100, [](int) { return kSenderClock; },
+      [&](int tick, double now) {
+        if (tick % 16 != 8 || tick < 100) return;  // between every two real frames
+        ReferenceFrame old = frames_[static_cast<std::size_t>(tick - 80)];
+        old.time_s += kSenderClock;
+        strays_accepted += rt.addReference(old, now, tick / 16 - 5) ? 1 : 0;
+      });
+  EXPECT_EQ(strays_accepted, 0);
+  EXPECT_LT(worst, 2e-3);
+  EXPECT_EQ(rt.referenceStream().counters().streams, 1u);
+  EXPECT_EQ(rt.referenceStream().lastRejection(), StreamVerdict::kNotAfterPrevious);
+}
+
+TEST_F(Realtime, RobotStatesFollowTheirOwnStream) {
+  RealtimeOptions options;
+  options.use_measured_state = true;
+  RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
+  const ReferenceFrame& f = frames_[0];
+  const double robot_clock = 77.0;
+  for (int k = 0; k < 100; ++k) ASSERT_TRUE(rt.addMeasuredState(f.q, f.v, robot_clock + 0.001 * k, 0.001 * k));
+  // A state stamped an hour ahead, and a stale copy of an old one: neither is used.
+  EXPECT_FALSE(rt.addMeasuredState(f.q, f.v, robot_clock + kHour, 0.1));
+  EXPECT_FALSE(rt.addMeasuredState(f.q, f.v, robot_clock + 0.05, 0.1));
+  EXPECT_EQ(rt.stateStream().lastRejection(), StreamVerdict::kNotAfterPrevious);
+  // The robot restarts with its clock at 0: followed from its third state.
+  EXPECT_FALSE(rt.addMeasuredState(f.q, f.v, 0.000, 0.101));
+  EXPECT_FALSE(rt.addMeasuredState(f.q, f.v, 0.001, 0.102));
+  EXPECT_TRUE(rt.addMeasuredState(f.q, f.v, 0.002, 0.103));
+  EXPECT_TRUE(rt.addMeasuredState(f.q, f.v, 0.003, 0.104));
+  EXPECT_EQ(rt.stateStream().counters().streams, 2u);
+  EXPECT_EQ(rt.stateStream().counters().rejected, 4u);
 }
 
 TEST(RealtimeLimits, CommandsAreClampedToTheUrdfEffortLimits) {

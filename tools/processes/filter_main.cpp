@@ -53,9 +53,16 @@ class Inbox {
     ++rejected_;
     last_reject_ = reason;
   }
+  void rejectState(const char* reason) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++states_received_;
+    ++states_rejected_;
+    last_state_reject_ = reason;
+  }
   void pushState(const msg::RobotStateInput& in) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
+      ++states_received_;
       if (state_fresh_) ++states_overwritten_;  // the control thread never saw the last one
       state_ = in;
       state_fresh_ = true;
@@ -90,14 +97,23 @@ class Inbox {
     drained_rejected_ = rejected_;
     drained_dropped_ = dropped_;
     drained_last_reject_ = last_reject_;
+    drained_states_received_ = states_received_;
+    drained_states_rejected_ = states_rejected_;
+    drained_last_state_reject_ = last_state_reject_;
   }
-  /// The counts as of the last drain().
+  /// The counts as of the last drain(): reference frames, then robot states.
   void counts(long& received, long& rejected, long& dropped, const char*& last_reject) {
     std::lock_guard<std::mutex> lock(mutex_);
     received = drained_received_;
     rejected = drained_rejected_;
     dropped = drained_dropped_;
     last_reject = drained_last_reject_;
+  }
+  void stateCounts(long& received, long& rejected, const char*& last_reject) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    received = drained_states_received_;
+    rejected = drained_states_rejected_;
+    last_reject = drained_last_state_reject_;
   }
 
  private:
@@ -112,6 +128,10 @@ class Inbox {
   const char* last_reject_ = nullptr;
   long drained_received_ = 0, drained_rejected_ = 0, drained_dropped_ = 0;
   const char* drained_last_reject_ = nullptr;
+  long states_received_ = 0, states_rejected_ = 0;
+  const char* last_state_reject_ = nullptr;
+  long drained_states_received_ = 0, drained_states_rejected_ = 0;
+  const char* drained_last_state_reject_ = nullptr;
 };
 
 // Receive-thread handlers: decode into reused objects, validate, hand over.
@@ -129,8 +149,12 @@ struct Receiver {
   }
   void onState(const lcm::ReceiveBuffer* rbuf, const std::string&) {
     const msg::MessageCheck check = states.read(rbuf->data, rbuf->data_size, state_in);
-    if (check.ok()) inbox.pushState(state_in);
-    else std::fprintf(stderr, "dynfilter: robot state rejected: %s\n", check.reason);
+    if (check.ok()) {
+      inbox.pushState(state_in);
+    } else {
+      inbox.rejectState(check.reason);
+      std::fprintf(stderr, "dynfilter: robot state rejected: %s\n", check.reason);
+    }
   }
   msg::ReferenceFrameReader references;
   msg::RobotStateReader states;
@@ -167,6 +191,16 @@ int main(int argc, char** argv) {
   app.add_option("--stale-timeout-s", rt_options.stale_timeout_s, "hold posture after this silence");
   app.add_option("--reference-delay-s", rt_options.reference_delay_s,
                  "play the reference this far behind its newest frame");
+  app.add_option("--clock-tolerance-s", rt_options.clock_tolerance_s,
+                 "a frame or state whose clock offset (receive time - utime) moves this far "
+                 "from its stream's is off the stream (README, \"Streams\")");
+  app.add_option("--new-stream-messages", rt_options.new_stream_messages,
+                 "messages in a row off the followed stream but consistent among themselves "
+                 "that make a new stream (a restarted sender, a jumped clock)")
+      ->check(CLI::Range(1, 1000));
+  app.add_option("--max-clock-offset-s", rt_options.max_clock_offset_s,
+                 "senders stamp on this host's clock: reject stamps further than this from "
+                 "the receive time (0: off, clocks may differ)");
   bool fixed_base = false;
   app.add_flag("--fixed-base", fixed_base,
                "plan the robot with its root welded and no ground (a robot on a test stand)");
@@ -226,8 +260,13 @@ int main(int argc, char** argv) {
     msg::CommandStamps stamps;
     msg::StatusReport report;
     report.mode = toString(config.filter.mode);
-    long missed = 0, received = 0, rejected = 0, dropped = 0;
+    long missed = 0, received = 0, rejected = 0, dropped = 0, states_received = 0,
+         states_rejected = 0;
     const char* last_reject = nullptr;
+    const char* last_state_reject = nullptr;
+    // The reason of the latest rejection, whoever rejected it (reader or stream policy).
+    const char* detail = nullptr;
+    long seen_rejected = 0, seen_states_rejected = 0;
     std::int64_t state_utime = 0;
     processes::Ticker ticker(rate_hz);
     const double start = processes::nowSeconds();
@@ -244,14 +283,18 @@ int main(int argc, char** argv) {
       const double now = processes::nowSeconds();
       inbox.drain(
           [&](const msg::ReferenceInput& in) {
-            if (rt.addReference(in.frame, now)) {
+            if (rt.addReference(in.frame, now, in.sequence)) {
               stamps.reference_utime = in.utime;
               stamps.reference_sequence = in.sequence;
+            } else {
+              detail = realtime::describe(rt.referenceStream().lastRejection());
             }
           },
           [&](const msg::RobotStateInput& s) {
-            rt.addMeasuredState(s.q, s.v, now);
-            state_utime = s.utime;
+            if (rt.addMeasuredState(s.q, s.v, static_cast<double>(s.utime) * 1e-6, now))
+              state_utime = s.utime;
+            else
+              detail = realtime::describe(rt.stateStream().lastRejection());
           });
       const FilterOutput& out = rt.tick(now);
       stamps.utime = processes::nowMicros();
@@ -261,10 +304,15 @@ int main(int argc, char** argv) {
       msg::fillContactState(info, out, stamps.utime, contacts);
       lcm.publish(contact_channel, buffer.data(), msg::encodeMessage(contacts, buffer));
       inbox.counts(received, rejected, dropped, last_reject);
+      inbox.stateCounts(states_received, states_rejected, last_state_reject);
+      if (rejected != seen_rejected) detail = last_reject;
+      if (states_rejected != seen_states_rejected) detail = last_state_reject;
+      seen_rejected = rejected;
+      seen_states_rejected = states_rejected;
       const auto& c = rt.counters();
       report.utime = stamps.utime;
       report.extra_status = rt.status();
-      report.detail = last_reject;
+      report.detail = detail;
       report.latency_us = stamps.robot_state_utime ? static_cast<double>(stamps.utime - state_utime) : 0.0;
       report.frames_received = received;
       report.frames_accepted = static_cast<std::int64_t>(c.frames_accepted);
@@ -273,6 +321,11 @@ int main(int argc, char** argv) {
       report.ticks = static_cast<std::int64_t>(c.ticks);
       report.missed_ticks = missed;
       report.reseeds = static_cast<std::int64_t>(c.reseeds);
+      report.reference_streams = static_cast<std::int64_t>(rt.referenceStream().counters().streams);
+      report.states_received = states_received;
+      report.states_rejected =
+          states_rejected + static_cast<std::int64_t>(rt.stateStream().counters().rejected);
+      report.state_streams = static_cast<std::int64_t>(rt.stateStream().counters().streams);
       msg::fillFilterStatus(out, report, status);
       lcm.publish(status_channel, buffer.data(), msg::encodeMessage(status, buffer));
     }
@@ -280,10 +333,12 @@ int main(int argc, char** argv) {
     receive_thread.join();
     std::fprintf(stderr,
                  "dynfilter: stopped after %llu ticks, %ld missed; frames received %ld, accepted "
-                 "%llu, rejected %lld, dropped %ld\n",
+                 "%llu, rejected %lld, dropped %ld; reference streams %lld, state streams %lld\n",
                  static_cast<unsigned long long>(rt.counters().ticks), missed, received,
                  static_cast<unsigned long long>(rt.counters().frames_accepted),
-                 static_cast<long long>(report.frames_rejected), dropped);
+                 static_cast<long long>(report.frames_rejected), dropped,
+                 static_cast<long long>(report.reference_streams),
+                 static_cast<long long>(report.state_streams));
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dynfilter: error: %s\n", e.what());

@@ -32,9 +32,13 @@ struct Listener {
     if (first_status_ticks < 0) {
       first_status_ticks = m->ticks;
       first_missed = m->missed_ticks;
+      first_states = m->states_received;
+      first_states_rejected = m->states_rejected;
     }
     last_ticks = m->ticks;
     last_missed = m->missed_ticks;
+    last_states = m->states_received;
+    last_states_rejected = m->states_rejected;
     if (m->status & (dynfilter::kStatusNonFinite | dynfilter::kStatusReseeded)) ++failed_ticks;
   }
   std::mutex mutex;
@@ -42,6 +46,7 @@ struct Listener {
   std::int64_t last_state_utime = 0;
   std::vector<double> latencies_us;
   std::int64_t first_status_ticks = -1, first_missed = 0, last_ticks = 0, last_missed = 0;
+  std::int64_t first_states = 0, last_states = 0, first_states_rejected = 0, last_states_rejected = 0;
   long failed_ticks = 0;  // non-finite solve or re-seed: the loop ran but the filter did not
 };
 
@@ -78,5 +83,11 @@ int main(int argc, char** argv) {
               static_cast<long long>(listener.last_ticks - listener.first_status_ticks),
               static_cast<long long>(listener.last_missed - listener.first_missed),
               listener.failed_ticks);
+  // With the loop closed on the robot state, missed ticks are the states overwritten before
+  // the filter ran: every state the filter received is answered, overwritten or rejected.
+  std::printf("robot states received by the filter %lld (rejected %lld); overwritten %lld\n",
+              static_cast<long long>(listener.last_states - listener.first_states),
+              static_cast<long long>(listener.last_states_rejected - listener.first_states_rejected),
+              static_cast<long long>(listener.last_missed - listener.first_missed));
   return 0;
 }

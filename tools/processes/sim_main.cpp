@@ -19,6 +19,7 @@
 #include "dynfilter/lcm/messages.hpp"
 #include "model_cli.hpp"
 #include "process_support.hpp"
+#include "robot_engine.hpp"
 
 namespace {
 
@@ -97,6 +98,10 @@ int main(int argc, char** argv) {
   app.add_flag("--harness", harness,
                "the robot hangs on a test stand: root link welded, no ground (joint-level "
                "bring-up; the filter still plans the free-floating robot)");
+  int substeps = 0;
+  app.add_option("--substeps", substeps,
+                 "engine steps per tick (0: the engine's own choice, robot_engine.hpp: 1)")
+      ->check(CLI::Range(0, 100));
   int cpu = -1;
   app.add_option("--cpu", cpu, "run the whole process on this CPU only (e.g. one of its own: "
                  "BENCHMARKS.md, real-time loop)");
@@ -112,6 +117,9 @@ int main(int argc, char** argv) {
       model_options.floating_base = false;
       model_options.environment.has_ground = false;
     }
+    // Before the model: DART's contact softness is process-wide.
+    const processes::RobotEngineSettings engine = processes::useAsRobot(backend);
+    if (substeps == 0) substeps = engine.substeps;
     const auto robot = dynfilter::tools::loadRobot(model_path, model_cli);
     auto model = makeModel(backend, robot, model_options);
     const ModelInfo& info = model->info();
@@ -135,8 +143,9 @@ int main(int argc, char** argv) {
       processes::tryRealtimeScheduling(51);
       while (!processes::g_stop) lcm.handleTimeout(20);
     });
-    std::fprintf(stderr, "dynfilter-sim: %s on %s at %.0f Hz; %s\n", info.name.c_str(),
-                 backend.c_str(), rate_hz, processes::tryRealtimeScheduling());
+    std::fprintf(stderr, "dynfilter-sim: %s on %s at %.0f Hz, %d engine step(s) a tick; %s\n",
+                 info.name.c_str(), backend.c_str(), rate_hz, substeps,
+                 processes::tryRealtimeScheduling());
 
     // The robot's joint servos: τ = τ_ff + K_p (q_f − q) + K_d (q̇_f − q̇). K_p asks for the
     // joint's full effort at --servo-error-rad; K_d damps the joint's own inertia (diagonal
@@ -181,7 +190,7 @@ int main(int argc, char** argv) {
           tau[j] = std::clamp(tau[j], -info.tau_max[j], info.tau_max[j]);
       }
       try {
-        model->simulateStep(tau, dt);
+        for (int s = 0; s < substeps; ++s) model->simulateStep(tau, dt / substeps);
       } catch (const std::exception& e) {
         std::fprintf(stderr, "dynfilter-sim: %s\n", e.what());
         processes::g_stop = true;

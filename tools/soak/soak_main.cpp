@@ -289,9 +289,6 @@ std::string joined(const std::vector<std::string>& args) {
   return out;
 }
 
-const char* kBitNames[] = {"contact overflow", "rank deficient", "non-finite solve", "reference invalid",
-                           "re-seeded", "impact", "torque clamped", "stale reference",
-                           "QP fallback", "QP relaxed"};
 
 struct Check {
   std::string name, criterion, measured;
@@ -604,7 +601,7 @@ int main(int argc, char** argv) {
   for (int b = 0; b < 16; ++b)
     if (L.bits[static_cast<std::size_t>(b)]) {
       any_bit = true;
-      md << fmt(" %d %s: %ld / %ld;", 1 << b, b < 10 ? kBitNames[b] : "?", L.bits[static_cast<std::size_t>(b)],
+      md << fmt(" %d %s: %ld / %ld;", 1 << b, msg::statusBitName(b) ? msg::statusBitName(b) : "?", L.bits[static_cast<std::size_t>(b)],
                 L.window_bits[static_cast<std::size_t>(b)]);
     }
   md << (any_bit ? "\n" : " none\n");

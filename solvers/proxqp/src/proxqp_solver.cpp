@@ -10,6 +10,9 @@ namespace {
 
 namespace pq = proxsuite::proxqp;
 
+// Newton steps of ProxQP's inner loop per outer iteration (its max_iter_in).
+constexpr int kNewtonStepsPerIteration = 5;
+
 class ProxQpSolver final : public IQpSolver {
  public:
   ProxQpSolver(int n, int n_eq, int n_in, const QpSolverSettings& settings)
@@ -29,12 +32,15 @@ class ProxQpSolver final : public IQpSolver {
     qp_.work.active_inequalities.setConstant(false);
     qp_.settings.eps_abs = settings.eps_abs;
     qp_.settings.eps_rel = 0.0;
+    // The cap: outer (proximal) iterations, and Newton steps within each. With ProxQP's
+    // default of 1500 Newton steps per outer iteration single ticks of the CMU clips ran
+    // 1500+ steps (15-64 ms); with 5, the cap changes no answer there (BENCHMARKS.md).
     qp_.settings.max_iter = settings.max_iterations;
+    qp_.settings.max_iter_in = kNewtonStepsPerIteration;
     qp_.settings.verbose = false;
     qp_.settings.compute_timings = false;
-    // Infeasibility tests keep ProxQP's defaults (eps_primal_inf = 1e-4): at 1e-12 an
-    // infeasible QP always ran to the iteration limit (measured: jump clip 1379 µs a tick
-    // against 318 µs); a false certificate is caught by the cold retry below.
+    // Infeasibility tests keep ProxQP's defaults (eps_primal_inf = 1e-4); a false
+    // certificate after a warm start is retried once from cold below.
     qp_.settings.initial_guess = pq::InitialGuessStatus::EQUALITY_CONSTRAINED_INITIAL_GUESS;
   }
 
@@ -65,8 +71,11 @@ class ProxQpSolver final : public IQpSolver {
     int iterations = static_cast<int>(qp_.results.info.iter);
     // Measured on the CMU clips: a warm start from a solution of a neighbouring problem
     // sometimes ends in a false infeasibility certificate after 1-3 iterations that a cold
-    // start solves. So a failed warm start is retried once from the equality-constrained guess.
-    if (qp_.results.info.status != pq::QPSolverOutput::PROXQP_SOLVED &&
+    // start solves. So a warm start that claims infeasibility is retried once from the
+    // equality-constrained guess (not one that reached the cap: the cap is the budget).
+    const auto status = qp_.results.info.status;
+    if ((status == pq::QPSolverOutput::PROXQP_PRIMAL_INFEASIBLE ||
+         status == pq::QPSolverOutput::PROXQP_DUAL_INFEASIBLE) &&
         qp_.settings.initial_guess == pq::InitialGuessStatus::WARM_START_WITH_PREVIOUS_RESULT) {
       qp_.settings.initial_guess = pq::InitialGuessStatus::EQUALITY_CONSTRAINED_INITIAL_GUESS;
       update(p, true);  // and re-scaled
@@ -91,8 +100,9 @@ class ProxQpSolver final : public IQpSolver {
         break;
     }
     if (!x.allFinite()) info.status = QpSolveStatus::kNotFinite;
-    // Warm-start the next tick only from a solution.
-    qp_.settings.initial_guess = settings_.warm_start && info.status == QpSolveStatus::kSolved
+    // Warm-start the next tick from a solution, or from where the cap stopped.
+    const bool usable = info.status == QpSolveStatus::kSolved || info.status == QpSolveStatus::kMaxIterations;
+    qp_.settings.initial_guess = settings_.warm_start && usable
                                      ? pq::InitialGuessStatus::WARM_START_WITH_PREVIOUS_RESULT
                                      : pq::InitialGuessStatus::EQUALITY_CONSTRAINED_INITIAL_GUESS;
     return info;

@@ -17,8 +17,9 @@
 ///              |τ_J| ≤ τ_max                      (URDF effort)
 ///              v̇_J within the bounds that keep q and q̇ in their limits over the tick
 ///
-/// When that QP fails, it is relaxed step by step (ContactQpReport); the caller falls back
-/// to the paper solve only when even the last relaxation fails.
+/// When that QP fails, it is relaxed (ContactQpReport): at most three solves a tick, each
+/// capped at QpSolverSettings::max_iterations; the caller falls back to the paper solve
+/// only when even the last relaxation fails.
 ///
 /// Problem sizes are fixed per size class (force capacity 12, 24, 6·max_links: two flat
 /// feet need no padding); each class has its own solver instance, warm-started from its
@@ -60,12 +61,13 @@ struct ContactQpReport {
   int force_capacity = 0;                  ///< size class used
   double solver_time_s = 0.0;              ///< time inside the QP engine (all attempts)
   bool ok = false;                         ///< solved and every family satisfied
-  /// Relaxations, tried in this order while the QP fails (each keeps the previous ones):
-  /// 1. joint-limit acceleration bounds dropped (a joint at its stop gets the stop's torque);
+  /// Relaxations, tried in this order while the QP fails (the second keeps the first):
+  /// 1. in one re-solve, the joint-limit acceleration bounds (a joint at its stop gets the
+  ///    stop's torque) and the normal forces' rate bounds (release ramps, unloading rate),
+  ///    each flag set when the problem had such bounds;
   bool joint_limits_dropped = false;
-  /// 2. the normal forces' rate bounds dropped (release ramps, unloading rate);
   bool ramps_dropped = false;
-  /// 3. every virtual link released (the contacts break): the caller must release them.
+  /// 2. every virtual link released (the contacts break): the caller must release them.
   bool contacts_released = false;
   std::uint32_t violated_first = kQpFamilyNone;  ///< families the first (full) attempt violated
 };

@@ -35,6 +35,10 @@ enum FilterStatusBits : std::uint32_t {
   /// hanging in the air); the filter keeps its physical state and does not re-seed on
   /// tracking errors while this lasts.
   kStatusReferenceInfeasible = 1u << 10,
+  /// QP mode: a QP solve of this tick stopped at its iteration cap (QpSolverSettings::
+  /// max_iterations); its iterate was used if it passed the constraint check, else the
+  /// fallback above.
+  kStatusQpIterationLimit = 1u << 11,
 };
 
 /// Why the state was re-seeded from the reference (with kStatusReseeded).

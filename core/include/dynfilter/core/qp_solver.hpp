@@ -43,9 +43,11 @@ struct QpSolverSettings {
   /// Absolute tolerance on the primal and dual residuals. 1e-7 (N, m/s²) keeps Eq. 12
   /// within 1e-8 of the body weight; 1e-9 took 25 iterations instead of 2 (BENCHMARKS.md).
   double eps_abs = 1e-7;
-  /// Outer iterations before giving up. A standing tick needs 2; on the CMU clips 50 keeps
-  /// every relaxation count of 200 and cuts the slowest tick from 41 to 11 ms.
-  int max_iterations = 50;
+  /// The per-solve cap: outer (proximal) iterations, each of at most a few Newton steps
+  /// (ProxQP: 5), so that a solve's work is bounded. A standing tick needs 2; on the CMU
+  /// clips 10 leaves every answer acceptable (an iterate stopped by the cap is used when
+  /// it passes the constraint check; FilterOutput status kStatusQpIterationLimit).
+  int max_iterations = 10;
   bool warm_start = true;  ///< start from the previous solution of the same instance
 };
 

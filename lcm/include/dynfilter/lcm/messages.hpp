@@ -7,7 +7,10 @@
 /// and once the first frame has been accepted nothing allocates as long as the joint
 /// names keep coming in the same order (any order, as long as it repeats). Every check
 /// returns a MessageCheck: an enum, a static reason string and the offending entry. A
-/// rejected message leaves the output and the reader's state untouched.
+/// rejected message leaves the output and the reader's state untouched. The readers check
+/// what a message says, not when: whether a stamp belongs to the stream the loop follows
+/// (a restarted sender, a wrong clock, a stray old message) is the real-time layer's
+/// stream policy (dynfilter/realtime/message_stream.hpp), which knows the receive time.
 ///
 /// Sending: the fill functions write into a reused message (no allocation once its
 /// vectors and strings have their size), and encodeMessage() into a reused byte buffer
@@ -51,7 +54,6 @@ enum class MessageError : int {
   kDuplicateBody,       ///< a contact hint names a link twice
   kNonFinite,           ///< a NaN or infinite number
   kNonUnitQuaternion,   ///< a quaternion whose norm is off 1 by more than 1e-6
-  kTimeWentBackwards,   ///< utime before the previous accepted message's
 };
 
 /// Name of the enum value, e.g. "kUnknownJoint" (static string).
@@ -124,14 +126,11 @@ class ReferenceFrameReader {
   /// (joint count equal to the model's, hint count within the bodies, arrays as long as
   /// their counts), joint names (known, each once, any order), hint bodies (known, each
   /// once), finite numbers, unit base quaternion (floating base) and task quaternion
-  /// (when has_task_target) within 1e-6 — then normalised — and utime not before the
-  /// previous accepted frame's.
+  /// (when has_task_target) within 1e-6 — then normalised.
   MessageCheck convert(const reference_frame_t& msg, ReferenceInput& out);
 
   /// The message decoded by the last read(), valid or not.
   const reference_frame_t& message() const { return message_; }
-  /// Forgets the previous frame's utime (e.g. the sender restarted).
-  void resetTime() { has_previous_ = false; }
 
  private:
   ModelInfo info_;
@@ -140,8 +139,6 @@ class ReferenceFrameReader {
   std::vector<int> hint_scratch_;
   std::vector<unsigned char> body_seen_;
   reference_frame_t message_;
-  bool has_previous_ = false;
-  std::int64_t previous_utime_ = 0;
 };
 
 /// A received robot state in the model's coordinates.
@@ -161,19 +158,16 @@ class RobotStateReader {
   explicit RobotStateReader(const ModelInfo& info);
 
   MessageCheck read(const void* data, std::size_t size, RobotStateInput& out);
-  /// Checks counts, names, finite numbers, the unit base quaternion (floating base,
-  /// then normalised) and utime not going backwards.
+  /// Checks counts, names, finite numbers and the unit base quaternion (floating base,
+  /// then normalised).
   MessageCheck convert(const robot_state_t& msg, RobotStateInput& out);
 
   const robot_state_t& message() const { return message_; }
-  void resetTime() { has_previous_ = false; }
 
  private:
   ModelInfo info_;
   JointNameMap names_;
   robot_state_t message_;
-  bool has_previous_ = false;
-  std::int64_t previous_utime_ = 0;
 };
 
 // ---------------------------------------------------------------------------------------
@@ -226,11 +220,18 @@ struct StatusReport {
   std::int64_t ticks = 0;
   std::int64_t missed_ticks = 0;
   std::int64_t reseeds = 0;
+  std::int64_t reference_streams = 0;
+  std::int64_t states_received = 0;
+  std::int64_t states_rejected = 0;
+  std::int64_t state_streams = 0;
 };
 
 /// Short description of each set bit, "; "-separated ("ok" for 0), into @p out without
 /// allocating once @p out has the capacity (fillFilterStatus reserves it).
 void describeStatus(std::uint32_t status, std::string& out);
+
+/// The name of status bit @p bit (0-based, FilterStatusBits order), nullptr if unknown.
+const char* statusBitName(int bit);
 
 /// The status message: status bits and reason ("<bits>: <detail>"), solver size (virtual
 /// links and their constraint rows: 3, 5 or 6 per link, plus task_rows), residuals,

@@ -13,6 +13,7 @@
 
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/reference_buffer.hpp"
+#include "dynfilter/realtime/message_stream.hpp"
 
 namespace dynfilter::realtime {
 
@@ -26,11 +27,19 @@ struct RealtimeOptions {
   bool use_measured_state = false;
   /// A measured state older than this (s) is not used.
   double measured_state_timeout_s = 0.05;
+  /// Stream policy (message_stream.hpp) of both the reference and the robot state: the
+  /// clock tolerance, the messages in a row that make a new stream, and the optional
+  /// bound on |stamp − receive time| for senders on this clock (0: off). A stream silent
+  /// for stale_timeout_s (references) or measured_state_timeout_s (states) is followed
+  /// anew by its next message.
+  double clock_tolerance_s = 0.5;
+  int new_stream_messages = 3;
+  double max_clock_offset_s = 0.0;
 };
 
 struct Counters {
   std::uint64_t frames_accepted = 0;
-  std::uint64_t frames_rejected = 0;  ///< time not after the newest frame
+  std::uint64_t frames_rejected = 0;  ///< off the reference stream (referenceStream())
   std::uint64_t ticks = 0;
   std::uint64_t stale_ticks = 0;
   std::uint64_t reseeds = 0;
@@ -44,15 +53,21 @@ class RealtimeFilter {
                  const RealtimeOptions& options, const ReferenceFrame& hold_posture,
                  const QpSolverFactory& qp_solver = {});
 
-  /// A validated reference frame; frame.time_s is on the sender's clock (s). @p now_s is
-  /// the local clock at reception. Returns false (counted as rejected) when its time is
-  /// not after the newest frame's. An accepted frame also enters the filter's preview
+  /// A validated reference frame; frame.time_s is on the sender's clock (s), @p now_s
+  /// the local clock at reception, @p sequence the sender's frame number (-1: none).
+  /// Returns false (counted as rejected; referenceStream().lastRejection() says why) when
+  /// the frame is off the followed stream. A frame that starts a new stream (a restarted
+  /// sender, a jumped clock, after silence) resets the reference history and the clock
+  /// offset. An accepted frame also enters the filter's preview
   /// (DynamicsFilter::previewFrame): the reference delay is the balance layer's look-ahead.
-  bool addReference(const ReferenceFrame& frame, double now_s);
+  /// No allocation.
+  bool addReference(const ReferenceFrame& frame, double now_s, std::int64_t sequence = -1);
 
-  /// A validated measured state (q: nq, v: nv) received at @p now_s.
-  void addMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
-                        const Eigen::Ref<const Eigen::VectorXd>& v, double now_s);
+  /// A validated measured state (q: nq, v: nv) stamped @p stamp_s on the robot's clock,
+  /// received at @p now_s. Returns false when it is off the state stream (not used).
+  bool addMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                        const Eigen::Ref<const Eigen::VectorXd>& v, double stamp_s,
+                        double now_s);
 
   /// One control tick at local time @p now_s. Never throws.
   const FilterOutput& tick(double now_s);
@@ -65,6 +80,9 @@ class RealtimeFilter {
   /// The reference sample the last tick used (its time on the sender's clock).
   const ReferenceFrame& lastReference() const { return sample_; }
   const Counters& counters() const { return counters_; }
+  /// The reference and robot-state streams: verdicts, counters, clock offsets.
+  const MessageStream& referenceStream() const { return references_; }
+  const MessageStream& stateStream() const { return states_; }
   bool stale() const { return stale_; }
   const DynamicsFilter& filter() const { return filter_; }
 
@@ -73,6 +91,7 @@ class RealtimeFilter {
   RealtimeOptions options_;
   DynamicsFilter filter_;
   ReferenceBuffer buffer_;
+  MessageStream references_, states_;
   ReferenceFrame hold_, sample_;
   Eigen::VectorXd command_, measured_q_, measured_v_;
   double clock_offset_s_ = 0.0;  // local − sender
