@@ -13,6 +13,7 @@ namespace {
 constexpr double kGravity = 9.81;  // m/s², along −z (the models' default gravity)
 constexpr double kMinHeight = 0.2;  // m: the LIPM height never below this
 constexpr double kInfeasibleAfterS = 0.25;  // s the reference must look infeasible
+constexpr double kReferenceFlatRad = 0.1;  // a reference sole this close to its surface is flat
 
 double cross2(const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
@@ -148,7 +149,8 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
       if (std::find(sole_bodies_.begin(), sole_bodies_.end(), c.body) != sole_bodies_.end()) continue;
       SoleOptions sole;
       sole.body = info.body_names[static_cast<std::size_t>(c.body)];
-      sole.n_B = model.bodyPose(c.body).linear().transpose() * c.n_W;
+      // Out of the sole: up in the neutral configuration (not the ground's normal: a slope).
+      sole.n_B = model.bodyPose(c.body).linear().transpose() * Eigen::Vector3d::UnitZ();
       soles_.push_back(sole);
       sole_bodies_.push_back(c.body);
     }
@@ -212,12 +214,16 @@ int BalanceLayer::flattenLandings(const IDynamicsModel& model, VirtualLinkSet& l
     if (link.kind == ContactKind::kFace || link.object != kGroundObject) continue;
     const auto it = std::find(sole_bodies_.begin(), sole_bodies_.end(), link.body);
     if (it == sole_bodies_.end()) continue;
-    const SoleFootprint& f = footprints_[static_cast<std::size_t>(it - sole_bodies_.begin())];
+    const std::size_t s = static_cast<std::size_t>(it - sole_bodies_.begin());
+    const SoleFootprint& f = footprints_[s];
     if (!f.valid) continue;
     const Eigen::Isometry3d X_WS = model.bodyPose(link.body) * f.X_BS;
     const Eigen::Vector3d n = link.X_WA.linear().col(2);  // the surface's normal
     const double tilt = std::acos(std::clamp(X_WS.linear().col(2).dot(n), -1.0, 1.0));
     if (tilt > options_.flat_landing_max_tilt_rad) continue;
+    // Only once the reference has this sole flat too (a heel strike waits for its foot-flat).
+    const Eigen::Vector3d n_ref = sole_refs_[s].R * soles_[s].n_B;
+    if (std::acos(std::clamp(n_ref.dot(n), -1.0, 1.0)) > kReferenceFlatRad) continue;
     Eigen::Isometry3d X_WA = Eigen::Isometry3d::Identity();
     X_WA.linear().col(0) = tangentFrom(n, X_WS.linear().col(0));
     X_WA.linear().col(1) = n.cross(X_WA.linear().col(0));

@@ -240,7 +240,7 @@ struct Landing {
   Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
 };
 
-Landing landOnHeel(double ankle_pitch_rad, double max_tilt_rad) {
+Landing landOnHeel(double ankle_pitch_rad, double max_tilt_rad, double reference_ankle_pitch_rad = 0.0) {
   auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const ModelInfo& info = model->info();
   BalanceOptions options;
@@ -250,6 +250,10 @@ Landing landOnHeel(double ankle_pitch_rad, double max_tilt_rad) {
   q[info.configurationIndex(info.findJoint("r_ankle_pitch"))] = ankle_pitch_rad;  // toes up
   q[info.configurationIndex(info.findJoint("l_knee"))] = 1.0;                      // left foot up
   q[2] = standingBaseHeight(*model, q) - 0.001;  // the right heel 1 mm into the ground
+  ReferenceFrame reference(info.nq, info.nv);  // the reference's sole at this pitch
+  reference.q = q;
+  reference.q[info.configurationIndex(info.findJoint("r_ankle_pitch"))] = reference_ankle_pitch_rad;
+  layer.prepare(*model, reference, 1e-3);
   model->setState(q, Eigen::VectorXd::Zero(info.nv));
   ContactList candidates(64);
   model->detectContacts(candidates);
@@ -299,6 +303,14 @@ TEST(Balance, ASoleLandingSteeperThanTheLimitKeepsItsEdge) {
   EXPECT_EQ(steep.after.kind, steep.before.kind);
   const Landing off = landOnHeel(-0.2, 0.0);  // flat landing off
   EXPECT_EQ(off.changed, 0);
+}
+
+TEST(Balance, ASoleLandsFlatOnlyOnceTheReferenceHasItFlat) {
+  const Landing heel_strike = landOnHeel(-0.2, 0.5, -0.2);  // the reference on its heel too
+  EXPECT_EQ(heel_strike.changed, 0);
+  EXPECT_EQ(heel_strike.after.kind, heel_strike.before.kind);
+  const Landing foot_flat = landOnHeel(-0.2, 0.5, -0.05);
+  EXPECT_EQ(foot_flat.changed, 1);
 }
 
 }  // namespace

@@ -113,7 +113,8 @@ class BalanceLayer {
   /// Flat landing: every sole body holding a point or edge link on the ground plane, tilted
   /// from the surface by at most BalanceOptions::flat_landing_max_tilt_rad, holds a face
   /// link over its whole sole instead (its footprint at the neutral configuration),
-  /// anchored flat on the surface so that the touching point stays where it is. The
+  /// anchored flat on the surface so that the touching point stays where it is, once the
+  /// reference (at the last prepare()) has that sole within 0.1 rad of the surface. The
   /// link's stabilisation brings the sole down. Returns the links changed. No allocation.
   int flattenLandings(const IDynamicsModel& model, VirtualLinkSet& links) const;
 
