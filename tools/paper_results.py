@@ -782,7 +782,8 @@ def main():
                     f"(base displacement, first → last frame), so the ground descends "
                     f"{SLOPE_DEG:g}° along that heading. `--slope-deg` puts the plane under "
                     f"the first frame's base (z = 0 there); under the last frame's base it is "
-                    f"at z = {z1:+.3f} m, while the reference walks on z = 0 throughout.")
+                    f"at z = {z1:+.3f} m; the reference (made on level ground) follows the plane: "
+                    f"`dynfilter-offline` moves each frame's base with the plane under it.")
         filtered = out / f"{name}_filtered.csv"
         contacts = out / f"{name}_filtered.contacts.csv"
         bodies = out / f"{name}_bodies.csv"

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "dynfilter/core/lie_group.hpp"
@@ -12,6 +13,7 @@ namespace {
 constexpr double kGravity = 9.81;  // m/s², along −z (the models' default gravity)
 constexpr double kMinHeight = 0.2;  // m: the LIPM height never below this
 constexpr double kInfeasibleAfterS = 0.25;  // s the reference must look infeasible
+constexpr double kReferenceFlatRad = 0.1;  // a reference sole this close to its surface is flat
 
 double cross2(const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
@@ -67,6 +69,16 @@ Eigen::Vector2d clampToHull(const Eigen::Vector2d& p, const std::array<Eigen::Ve
   return best;
 }
 
+
+// A unit vector orthogonal to the unit vector n, preferring the projection of @p hint.
+Eigen::Vector3d tangentFrom(const Eigen::Vector3d& n, const Eigen::Vector3d& hint) {
+  Eigen::Vector3d t = hint - n * n.dot(hint);
+  if (t.norm() < 1e-6) {
+    const Eigen::Vector3d other = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    t = other - n * n.dot(other);
+  }
+  return t.normalized();
+}
 
 }  // namespace
 
@@ -137,7 +149,8 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
       if (std::find(sole_bodies_.begin(), sole_bodies_.end(), c.body) != sole_bodies_.end()) continue;
       SoleOptions sole;
       sole.body = info.body_names[static_cast<std::size_t>(c.body)];
-      sole.n_B = model.bodyPose(c.body).linear().transpose() * c.n_W;
+      // Out of the sole: up in the neutral configuration (not the ground's normal: a slope).
+      sole.n_B = model.bodyPose(c.body).linear().transpose() * Eigen::Vector3d::UnitZ();
       soles_.push_back(sole);
       sole_bodies_.push_back(c.body);
     }
@@ -145,6 +158,83 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
   }
   for (SoleOptions& sole : soles_) sole.n_B.normalize();
   sole_refs_.resize(soles_.size());
+  footprints_.resize(soles_.size());
+  if (model.environment().has_ground && !soles_.empty()) {
+    // Footprints: the neutral configuration sunk into the ground (every corner of a sole
+    // is reported); a sole's face is its points lowest along its normal (within 2 mm).
+    const Eigen::VectorXd q_saved = model.q(), v_saved = model.v();
+    Eigen::VectorXd q = info.neutralConfiguration();
+    const GroundPlane& ground = model.environment().ground;
+    q[2] = (ground.offset_m - ground.n_W.x() * q[0] - ground.n_W.y() * q[1]) / ground.n_W.z();
+    model.setState(q, Eigen::VectorXd::Zero(info.nv));
+    model.detectContacts(candidates_);
+    for (std::size_t s = 0; s < soles_.size(); ++s) {
+      SoleFootprint& f = footprints_[s];
+      const Eigen::Vector3d n = soles_[s].n_B;
+      const Eigen::Vector3d x = tangentFrom(n, Eigen::Vector3d::UnitX());
+      const Eigen::Vector3d y = n.cross(x);
+      double lowest = std::numeric_limits<double>::infinity();
+      for (const ContactCandidate& c : candidates_)
+        if (c.body == sole_bodies_[s] && c.object == kGroundObject) lowest = std::min(lowest, n.dot(c.p_BC));
+      const auto onFace = [&](const ContactCandidate& c) {
+        return c.body == sole_bodies_[s] && c.object == kGroundObject && n.dot(c.p_BC) <= lowest + 0.002;
+      };
+      Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+      int count = 0;
+      for (const ContactCandidate& c : candidates_)
+        if (onFace(c)) {
+          centroid += c.p_BC;
+          ++count;
+        }
+      if (count < 3) continue;
+      centroid /= count;
+      f.min.setConstant(std::numeric_limits<double>::infinity());
+      f.max.setConstant(-std::numeric_limits<double>::infinity());
+      for (const ContactCandidate& c : candidates_)
+        if (onFace(c)) {
+          const Eigen::Vector2d xy(x.dot(c.p_BC - centroid), y.dot(c.p_BC - centroid));
+          f.min = f.min.cwiseMin(xy);
+          f.max = f.max.cwiseMax(xy);
+        }
+      f.X_BS.linear().col(0) = x;
+      f.X_BS.linear().col(1) = y;
+      f.X_BS.linear().col(2) = n;
+      f.X_BS.translation() = centroid;
+      f.valid = (f.max - f.min).minCoeff() > 0.01;  // a face, not a corner or an edge
+    }
+    model.setState(q_saved, v_saved);
+  }
+}
+
+int BalanceLayer::flattenLandings(const IDynamicsModel& model, VirtualLinkSet& links) const {
+  if (options_.flat_landing_max_tilt_rad <= 0.0) return 0;
+  int changed = 0;
+  for (int i = 0; i < links.size(); ++i) {
+    const VirtualLink& link = links[i];
+    if (link.kind == ContactKind::kFace || link.object != kGroundObject) continue;
+    const auto it = std::find(sole_bodies_.begin(), sole_bodies_.end(), link.body);
+    if (it == sole_bodies_.end()) continue;
+    const std::size_t s = static_cast<std::size_t>(it - sole_bodies_.begin());
+    const SoleFootprint& f = footprints_[s];
+    if (!f.valid) continue;
+    const Eigen::Isometry3d X_WS = model.bodyPose(link.body) * f.X_BS;
+    const Eigen::Vector3d n = link.X_WA.linear().col(2);  // the surface's normal
+    const double tilt = std::acos(std::clamp(X_WS.linear().col(2).dot(n), -1.0, 1.0));
+    if (tilt > options_.flat_landing_max_tilt_rad) continue;
+    // Only once the reference has this sole flat too (a heel strike waits for its foot-flat).
+    const Eigen::Vector3d n_ref = sole_refs_[s].R * soles_[s].n_B;
+    if (std::acos(std::clamp(n_ref.dot(n), -1.0, 1.0)) > kReferenceFlatRad) continue;
+    Eigen::Isometry3d X_WA = Eigen::Isometry3d::Identity();
+    X_WA.linear().col(0) = tangentFrom(n, X_WS.linear().col(0));
+    X_WA.linear().col(1) = n.cross(X_WA.linear().col(0));
+    X_WA.linear().col(2) = n;
+    // The touching point (on the surface) keeps its place in the sole's plane.
+    const Eigen::Vector3d r_S = f.X_BS.inverse() * link.X_BC.translation();
+    X_WA.translation() = link.X_WA.translation() - X_WA.linear() * Eigen::Vector3d(r_S.x(), r_S.y(), 0.0);
+    links.makeFace(i, f.X_BS, X_WA, f.min, f.max);
+    ++changed;
+  }
+  return changed;
 }
 
 const BalanceLayer::Sample& BalanceLayer::at(int i) const {

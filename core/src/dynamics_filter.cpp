@@ -256,7 +256,8 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   for (const ContactCandidate& c : candidates_)
     out_.max_penetration_m = std::max(out_.max_penetration_m, c.depth_m);
   if (balance_) balance_->addSoleCandidates(model_, q_, v_, links_, candidates_);
-  const int created = links_.update(model_, candidates_, status);
+  int created = links_.update(model_, candidates_, status);
+  if (balance_) created += balance_->flattenLandings(model_, links_);
   const int nc = links_.numRows();
   auto H_C = H_C_.topRows(nc);
   auto u_C = u_C_.head(nc);

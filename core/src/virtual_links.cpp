@@ -180,6 +180,18 @@ bool VirtualLinkSet::makeLink(const IDynamicsModel& model, const ContactList& ca
   return true;
 }
 
+void VirtualLinkSet::makeFace(int i, const Eigen::Isometry3d& X_BC, const Eigen::Isometry3d& X_WA,
+                              const Eigen::Vector2d& support_min, const Eigen::Vector2d& support_max) {
+  VirtualLink& link = links_[static_cast<std::size_t>(i)];
+  link.kind = ContactKind::kFace;
+  link.X_BC = X_BC;
+  link.X_WA = X_WA;
+  link.support_min = support_min;
+  link.support_max = support_max;
+  link.num_axes = constrainedAxes(link.kind, link.axes);
+  link.created_this_tick = true;
+}
+
 bool VirtualLinkSet::isReleased(int body, int object) const {
   for (int r = 0; r < num_released_; ++r) {
     const ReleasedPair& pair = released_[static_cast<std::size_t>(r)];

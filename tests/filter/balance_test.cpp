@@ -232,5 +232,86 @@ TEST(Balance, AFollowableStandingReferenceIsNotReportedInfeasible) {
   EXPECT_EQ(u.reseeds, 0u);
 }
 
+// Flat landing: a sole that touches down on its heel edge holds a face link over its whole
+// sole, anchored flat on the ground about the heel; a steeper sole keeps its edge link.
+struct Landing {
+  int changed = 0;
+  VirtualLink before, after;
+  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+};
+
+Landing landOnHeel(double ankle_pitch_rad, double max_tilt_rad, double reference_ankle_pitch_rad = 0.0) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const ModelInfo& info = model->info();
+  BalanceOptions options;
+  options.flat_landing_max_tilt_rad = max_tilt_rad;
+  BalanceLayer layer(*model, options);
+  Eigen::VectorXd q = info.neutralConfiguration();
+  q[info.configurationIndex(info.findJoint("r_ankle_pitch"))] = ankle_pitch_rad;  // toes up
+  q[info.configurationIndex(info.findJoint("l_knee"))] = 1.0;                      // left foot up
+  q[2] = standingBaseHeight(*model, q) - 0.001;  // the right heel 1 mm into the ground
+  ReferenceFrame reference(info.nq, info.nv);  // the reference's sole at this pitch
+  reference.q = q;
+  reference.q[info.configurationIndex(info.findJoint("r_ankle_pitch"))] = reference_ankle_pitch_rad;
+  layer.prepare(*model, reference, 1e-3);
+  model->setState(q, Eigen::VectorXd::Zero(info.nv));
+  ContactList candidates(64);
+  model->detectContacts(candidates);
+  ContactOptions contacts;
+  VirtualLinkSet links(contacts, info.nv);
+  std::uint32_t status = 0;
+  links.update(*model, candidates, status);
+  Landing l;
+  const int foot = info.findBody("r_foot");
+  for (int i = 0; i < links.size(); ++i)
+    if (links[i].body == foot) l.before = links[i];
+  l.changed = layer.flattenLandings(*model, links);
+  for (int i = 0; i < links.size(); ++i)
+    if (links[i].body == foot) l.after = links[i];
+  l.X_WB = model->bodyPose(foot);
+  return l;
+}
+
+TEST(Balance, ASoleLandingOnItsHeelHoldsAFlatFaceOverTheWholeSole) {
+  const double tilt = 0.2;  // rad, toes up
+  const Landing l = landOnHeel(-tilt, 0.5);
+  ASSERT_NE(l.before.body, -1) << "the heel touches";
+  EXPECT_NE(l.before.kind, ContactKind::kFace);
+  EXPECT_EQ(l.changed, 1);
+  EXPECT_EQ(l.after.kind, ContactKind::kFace);
+  EXPECT_EQ(l.after.num_axes, 6);
+  // The sole's box: 0.259 m x 0.0986 m (models/human_figure.urdf), centred on the link frame.
+  EXPECT_NEAR(l.after.support_max.x() - l.after.support_min.x(), 0.2594, 1e-3);
+  EXPECT_NEAR(l.after.support_max.y() - l.after.support_min.y(), 0.0986, 1e-3);
+  EXPECT_NEAR(l.after.support_max.x(), -l.after.support_min.x(), 1e-6);
+  // Anchored flat on the ground, the link frame tilted from it by the sole's tilt: the
+  // link error its stabilisation removes.
+  EXPECT_NEAR(l.after.X_WA.translation().z(), 0.0, 1e-9);
+  EXPECT_NEAR(l.after.X_WA.linear().col(2).dot(Eigen::Vector3d::UnitZ()), 1.0, 1e-12);
+  const Eigen::Isometry3d X_WC = l.X_WB * l.after.X_BC;
+  EXPECT_NEAR(logSO3(l.after.X_WA.linear().transpose() * X_WC.linear()).norm(), tilt, 0.02);
+  // The heel stays where it touched: its point, flat on the anchor, is the old link's.
+  const Eigen::Vector3d heel_C = l.after.X_BC.inverse() * l.before.X_BC.translation();
+  const Eigen::Vector3d heel_flat = l.after.X_WA * Eigen::Vector3d(heel_C.x(), heel_C.y(), 0.0);
+  EXPECT_LE((heel_flat - l.before.X_WA.translation()).norm(), 1e-9);
+  EXPECT_LT(heel_C.x(), -0.1) << "the heel is at the back of the sole";
+}
+
+TEST(Balance, ASoleLandingSteeperThanTheLimitKeepsItsEdge) {
+  const Landing steep = landOnHeel(-0.2, 0.1);
+  EXPECT_EQ(steep.changed, 0);
+  EXPECT_EQ(steep.after.kind, steep.before.kind);
+  const Landing off = landOnHeel(-0.2, 0.0);  // flat landing off
+  EXPECT_EQ(off.changed, 0);
+}
+
+TEST(Balance, ASoleLandsFlatOnlyOnceTheReferenceHasItFlat) {
+  const Landing heel_strike = landOnHeel(-0.2, 0.5, -0.2);  // the reference on its heel too
+  EXPECT_EQ(heel_strike.changed, 0);
+  EXPECT_EQ(heel_strike.after.kind, heel_strike.before.kind);
+  const Landing foot_flat = landOnHeel(-0.2, 0.5, -0.05);
+  EXPECT_EQ(foot_flat.changed, 1);
+}
+
 }  // namespace
 }  // namespace dynfilter

@@ -81,6 +81,7 @@ void expectSameFilterOptions(const FilterOptions& a, const FilterOptions& b) {
   EXPECT_EQ(a.balance.sole_kp, b.balance.sole_kp);
   EXPECT_EQ(a.balance.sole_kd, b.balance.sole_kd);
   EXPECT_EQ(a.balance.sole_margin_m, b.balance.sole_margin_m);
+  EXPECT_EQ(a.balance.flat_landing_max_tilt_rad, b.balance.flat_landing_max_tilt_rad);
 }
 
 void expectSameEnvironment(const Environment& a, const Environment& b) {
@@ -140,7 +141,7 @@ TEST(ConfigFile, ShippedDefaultFileListsEveryKeyOnceWithAComment) {
       {"height_kp", 1}, {"height_kd", 1}, {"angular_momentum_damping", 1},
       {"angular_momentum_weight", 1}, {"preview_s", 1}, {"preview_capacity", 1},
       {"stance_height_m", 1}, {"stance_speed_mps", 1}, {"sole_weight", 1}, {"sole_kp", 1},
-      {"sole_kd", 1}, {"sole_margin_m", 1},
+      {"sole_kd", 1}, {"sole_margin_m", 1}, {"flat_landing_max_tilt_rad", 1},
       {"ground", 1}, {"slope_deg", 1}, {"heading_deg", 1}, {"height_m", 1}, {"friction", 1},
       {"boxes", 1}};
   EXPECT_EQ(count, expected);

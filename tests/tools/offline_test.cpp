@@ -1,4 +1,5 @@
 // dynfilter-offline as a user runs it: real files in, real files out, exit codes.
+#include <cmath>
 #include <cstdio>
 #include <unistd.h>
 #include <cstdlib>
@@ -97,6 +98,48 @@ TEST(Offline, BodyPositionsForPicturesMatchTheFilteredBase) {
     EXPECT_NEAR(std::stod(filtered[static_cast<std::size_t>(pelvis_z)]),
                 std::stod(main[r][static_cast<std::size_t>(base_z)]), 1e-6);
   }
+}
+
+TEST(Offline, AReferenceMadeOnLevelGroundFollowsTheSlopeGiven) {
+  // The squat drifting 0.3 m/s along x, on a 10° slope descending along x: every reference
+  // frame's base sinks with the plane under it (tan 10° per metre along x).
+  std::ifstream in(kSquat);
+  const std::string moving = testing::TempDir() + "/moving_squat.csv";
+  std::ofstream file(moving);
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (n > 3) {
+      std::vector<std::string> f;
+      std::stringstream ss(line);
+      std::string x;
+      while (std::getline(ss, x, ',')) f.push_back(x);
+      f[1] = std::to_string(std::stod(f[1]) + 0.3 * std::stod(f[0]));
+      line.clear();
+      for (std::size_t i = 0; i < f.size(); ++i) line += (i ? "," : "") + f[i];
+    }
+    file << line << "\n";
+  }
+  file.close();
+  const std::string out = testing::TempDir() + "/slope_out.csv";
+  const std::string bodies = testing::TempDir() + "/slope_bodies.csv";
+  const ProcessResult run = runOffline(moving + " -o " + out + " --no-progress -q --slope-deg 10 " +
+                                       "--slope-heading-deg 0 --bodies-csv " + bodies);
+  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const auto rows = readCsv(bodies);
+  const auto reference = readCsv(kSquat);
+  const int x = column(rows[0], "pelvis.x"), z = column(rows[0], "pelvis.z");
+  ASSERT_GT(z, 1);
+  ASSERT_EQ(rows.size(), 1 + 2 * (reference.size() - 3));
+  const double x0 = std::stod(rows[1][static_cast<std::size_t>(x)]);
+  for (std::size_t r = 1; r + 3 < reference.size(); r += 40) {
+    const auto& ref = rows[2 * r - 1];
+    ASSERT_EQ(ref[1], "reference");
+    const double dx = std::stod(ref[static_cast<std::size_t>(x)]) - x0;
+    EXPECT_NEAR(std::stod(ref[static_cast<std::size_t>(z)]),
+                std::stod(reference[r + 2][3]) - std::tan(10.0 * M_PI / 180.0) * dx, 1e-6)
+        << "frame " << r;
+  }
+  EXPECT_GT(std::stod(rows[rows.size() - 2][static_cast<std::size_t>(x)]) - x0, 1.0) << "it moved";
 }
 
 TEST(Offline, ABrokenReferenceIsRejectedAndNothingIsWritten) {

@@ -125,7 +125,8 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   app.add_option("--slope-deg", slope_deg,
                  "ground slope, overrides the config (deg); the plane passes under the "
-                 "reference's first base position");
+                 "reference's first base position, and each reference frame's base moves "
+                 "with the plane under it (a motion made on level ground follows the slope)");
   app.add_option("--slope-heading-deg", heading_deg, "direction the ground descends (deg)");
   app.add_option("--friction", friction, "ground friction coefficient, overrides the config");
   app.add_flag("--every-tick", every_tick, "write every filter tick, not only reference frames");
@@ -151,14 +152,26 @@ int main(int argc, char** argv) {
     // The motion is read first (any model of the robot knows its coordinates): a slope
     // given on the command line passes under the motion's first base position.
     const auto coordinates = makeModel(backend, robot, ModelOptions{});
-    const io::ReferenceMotion motion = io::readReferenceMotion(reference_path, coordinates->info());
+    io::ReferenceMotion motion = io::readReferenceMotion(reference_path, coordinates->info());
     if (!std::isnan(slope_deg)) {
       const double slope = slope_deg * M_PI / 180.0, heading = heading_deg * M_PI / 180.0;
-      const Eigen::VectorXd& q0 = motion.frames.front().q;
+      const Eigen::VectorXd q0 = motion.frames.front().q;
       const double along = std::cos(heading) * q0[0] + std::sin(heading) * q0[1];
       config.environment.ground = GroundPlane::sloped(
           slope, heading, coordinates->info().floating_base ? std::tan(slope) * along : 0.0,
           config.environment.ground.friction);
+      if (coordinates->info().floating_base) {
+        // The motion (made on level ground) follows the terrain: each frame's base rises or
+        // sinks with the plane under it, so its feet stand on the slope.
+        const GroundPlane& g = config.environment.ground;
+        const auto height = [&](const Eigen::VectorXd& q) {
+          return (g.offset_m - g.n_W.x() * q[0] - g.n_W.y() * q[1]) / g.n_W.z();
+        };
+        const double z0 = height(q0);
+        for (ReferenceFrame& f : motion.frames) f.q[2] += height(f.q) - z0;
+        if (motion.frames.size() >= 2)
+          io::estimateDerivatives(motion.frames, true, io::ReferenceReadOptions{}.smoothing_window, true, true);
+      }
     }
     if (!std::isnan(friction)) config.environment.ground.friction = friction;
     if (!mode.empty()) parseFilterMode(mode, config.filter.mode);

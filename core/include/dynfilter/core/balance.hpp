@@ -110,6 +110,14 @@ class BalanceLayer {
                          const Eigen::Ref<const Eigen::VectorXd>& v, const VirtualLinkSet& links,
                          ContactList& candidates);
 
+  /// Flat landing: every sole body holding a point or edge link on the ground plane, tilted
+  /// from the surface by at most BalanceOptions::flat_landing_max_tilt_rad, holds a face
+  /// link over its whole sole instead (its footprint at the neutral configuration),
+  /// anchored flat on the surface so that the touching point stays where it is, once the
+  /// reference (at the last prepare()) has that sole within 0.1 rad of the surface. The
+  /// link's stabilisation brings the sole down. Returns the links changed. No allocation.
+  int flattenLandings(const IDynamicsModel& model, VirtualLinkSet& links) const;
+
   const BalanceState& state() const { return state_; }
   /// The reference's contact schedule at the last prepare(): bit b set when the reference
   /// has body b within stance_height_m of the environment and slower than
@@ -126,6 +134,11 @@ class BalanceLayer {
     int num_support = 0;
     std::array<Eigen::Vector2d, kMaxSupport> support;  // convex hull, counter-clockwise
     std::uint64_t stance = 0;  // bodies (< 64) in stance
+  };
+  struct SoleFootprint {  // the sole's face in its body: frame S (z out of the sole) and extent
+    Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();
+    Eigen::Vector2d min = Eigen::Vector2d::Zero(), max = Eigen::Vector2d::Zero();
+    bool valid = false;
   };
   struct SoleReference {  // a sole's pose and motion in the reference at this tick
     Eigen::Vector3d p = Eigen::Vector3d::Zero(), pdot = Eigen::Vector3d::Zero(), pddot = Eigen::Vector3d::Zero();
@@ -148,6 +161,7 @@ class BalanceLayer {
   std::vector<int> sole_bodies_;
   std::vector<SoleOptions> soles_;
   std::vector<SoleReference> sole_refs_;
+  std::vector<SoleFootprint> footprints_;
   std::vector<Sample> ring_;
   int head_ = 0, size_ = 0;
   Sample now_;                  // the reference at this tick

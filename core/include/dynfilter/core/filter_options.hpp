@@ -161,6 +161,10 @@ struct BalanceOptions {
   /// A held sole's points this close to the surface join its link (m): it becomes a face.
   double sole_margin_m = 0.005;
   double sole_kp = 400.0, sole_kd = 40.0;  ///< 1/s², 1/s
+  /// Flat landing: a sole that touches down on a corner or an edge tilted by at most this
+  /// (rad) holds a face link over its whole sole at once, anchored flat on the surface
+  /// about the touching point; the link's stabilisation brings the sole down flat. 0: off.
+  double flat_landing_max_tilt_rad = 0.5;
 };
 
 struct FilterOptions {

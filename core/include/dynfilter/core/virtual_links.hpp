@@ -84,6 +84,13 @@ class VirtualLinkSet {
 
   int size() const { return size_; }
   const VirtualLink& operator[](int i) const { return links_[static_cast<std::size_t>(i)]; }
+
+  /// Turns link @p i into a face link: frame @p X_BC on its body (z out of the body's
+  /// surface), anchor @p X_WA on the environment's surface, support rectangle
+  /// [@p support_min, @p support_max] in the link frame's xy (m). The difference between
+  /// X_WB X_BC and X_WA is the link error its stabilisation removes. Marks it created.
+  void makeFace(int i, const Eigen::Isometry3d& X_BC, const Eigen::Isometry3d& X_WA,
+                const Eigen::Vector2d& support_min, const Eigen::Vector2d& support_max);
   /// Total constrained rows N_C.
   int numRows() const;
 
