@@ -648,7 +648,8 @@ TEST(FilterStatusMessage, ReportsBitsReasonSolverTimingsAndCounters) {
   std::string all;
   describeStatus(0xffffffffu, all);
   EXPECT_EQ(all, "contact overflow; rank deficient; non-finite solve; reference invalid; re-seeded; "
-                 "impact; torque clamped; stale reference; QP fallback; QP relaxed; QP iteration cap; "
+                 "impact; torque clamped; stale reference; QP fallback; QP relaxed; reference infeasible; "
+                 "QP iteration cap; "
                  "unknown status bit");
 
   // QP mode: the relaxation's violated families and the re-seed reason are in the reason;

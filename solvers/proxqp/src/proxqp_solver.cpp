@@ -71,11 +71,13 @@ class ProxQpSolver final : public IQpSolver {
     int iterations = static_cast<int>(qp_.results.info.iter);
     // Measured on the CMU clips: a warm start from a solution of a neighbouring problem
     // sometimes ends in a false infeasibility certificate after 1-3 iterations that a cold
-    // start solves. So a warm start that claims infeasibility is retried once from the
-    // equality-constrained guess (not one that reached the cap: the cap is the budget).
+    // start solves. So a warm start that fails — infeasible, or stopped by the cap — is
+    // retried once from the equality-constrained guess. (Retrying only on infeasibility
+    // left capped warm iterates that the filter rejected: the CMU walk's first second
+    // went relaxed with the balance tasks in the objective.) A solve is at most two capped
+    // solves.
     const auto status = qp_.results.info.status;
-    if ((status == pq::QPSolverOutput::PROXQP_PRIMAL_INFEASIBLE ||
-         status == pq::QPSolverOutput::PROXQP_DUAL_INFEASIBLE) &&
+    if (status != pq::QPSolverOutput::PROXQP_SOLVED &&
         qp_.settings.initial_guess == pq::InitialGuessStatus::WARM_START_WITH_PREVIOUS_RESULT) {
       qp_.settings.initial_guess = pq::InitialGuessStatus::EQUALITY_CONSTRAINED_INITIAL_GUESS;
       update(p, true);  // and re-scaled
