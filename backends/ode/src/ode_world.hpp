@@ -42,6 +42,9 @@ struct OdeNode {
   int link = -1;              ///< the carrier URDF link (the one whose frame N is)
   int coordinate = -1;        ///< joint coordinate (0 ≤ c < nj), −1 for the root
   bool prismatic = false;     ///< slider; otherwise hinge (revolute, continuous)
+  bool ball = false;          ///< ball joint: 3 coordinates from `coordinate` on (ball_joint.hpp)
+  bool fixed = false;         ///< fixed joint: welded to the parent, no coordinate
+  double axis_sign = 1.0;     ///< −1 when the child is the joint's body 2 (user's joints)
   dJointID joint = nullptr;   ///< hinge or slider, body 1 = this node, body 2 = parent
   Eigen::Isometry3d X_PJ = Eigen::Isometry3d::Identity();  ///< joint frame in parent's N
   Eigen::Vector3d axis_J = Eigen::Vector3d::UnitX();       ///< unit axis in J

@@ -1,0 +1,342 @@
+#include "dynfilter/dart/skeleton_model.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include <Eigen/LU>
+#include <dart/collision/CollisionDetector.hpp>
+#include <dart/collision/CollisionFilter.hpp>
+#include <dart/collision/CollisionGroup.hpp>
+#include <dart/collision/CollisionObject.hpp>
+#include <dart/collision/CollisionResult.hpp>
+#include <dart/constraint/ConstraintSolver.hpp>
+#include <dart/dynamics/FreeJoint.hpp>
+#include <dart/dynamics/ShapeNode.hpp>
+
+#include "dynfilter/core/ball_joint.hpp"
+#include "dynfilter/core/errors.hpp"
+#include "dynfilter/core/lie_group.hpp"
+#include "skeleton_model_setup.hpp"
+
+namespace dynfilter::dart_backend {
+namespace {
+
+using dart::dynamics::Frame;
+
+// Keeps only pairs with exactly one shape on the robot's skeleton, in the one collision
+// group that holds the whole world. (DART's two-group collide() builds a temporary Bullet
+// world on every call: ~300 µs.)
+class RobotVersusOthersFilter final : public dart::collision::CollisionFilter {
+ public:
+  explicit RobotVersusOthersFilter(const dart::dynamics::Skeleton* robot) : robot_(robot) {}
+  bool ignoresCollision(const dart::collision::CollisionObject* a,
+                        const dart::collision::CollisionObject* b) const override {
+    return isRobot(a) == isRobot(b);
+  }
+
+ private:
+  bool isRobot(const dart::collision::CollisionObject* o) const {
+    const auto* node = o->getShapeFrame()->asShapeNode();
+    return node != nullptr && node->getSkeleton().get() == robot_;
+  }
+  const dart::dynamics::Skeleton* robot_;
+};
+
+// Above this speed (m/s or rad/s in any coordinate) a state is treated as diverged.
+constexpr double kMaxSimulatedSpeed = 1e3;
+
+class DartSkeletonModel final : public SkeletonModel {
+ public:
+  explicit DartSkeletonModel(SkeletonModelSetup setup)
+      : s_(std::move(setup)),
+        q_(s_.info.neutralConfiguration()),
+        v_(Eigen::VectorXd::Zero(s_.info.nv)),
+        dart_q_(s_.skeleton->getNumDofs()),
+        dart_v_(s_.skeleton->getNumDofs()),
+        dart_a_(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(s_.skeleton->getNumDofs()))),
+        dart_tau_(s_.skeleton->getNumDofs()),
+        v_of_dof_(s_.skeleton->getNumDofs(), -1),
+        inertia_times_J_(6, s_.skeleton->getNumDofs()),
+        ball_cols_(s_.info.nv, kBallJointDofs),
+        ball_rows_(kBallJointDofs, s_.info.nv) {
+    for (int i = 0; i < s_.info.nv; ++i) v_of_dof_[static_cast<std::size_t>(s_.dof_of_v[i])] = i;
+    // One collision group over every skeleton in the world, made by the world's own
+    // detector and subscribed to the skeletons so that it follows their shapes.
+    collision_group_ =
+        s_.world->getConstraintSolver()->getCollisionDetector()->createCollisionGroup();
+    for (std::size_t k = 0; k < s_.world->getNumSkeletons(); ++k)
+      collision_group_->subscribeTo(s_.world->getSkeleton(k));
+    collision_filter_ = std::make_shared<RobotVersusOthersFilter>(s_.skeleton.get());
+    if (!pullSkeletonState())
+      throw InvalidStateError("skeleton \"" + s_.skeleton->getName() +
+                              "\": its current state is not finite");
+  }
+
+  const ModelInfo& info() const override { return s_.info; }
+  std::string_view backendName() const override { return "dart"; }
+  const Environment& environment() const override { return s_.environment; }
+  const dart::dynamics::SkeletonPtr& skeleton() const override { return s_.skeleton; }
+  const dart::simulation::WorldPtr& world() const override { return s_.world; }
+
+  void setState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                const Eigen::Ref<const Eigen::VectorXd>& v) override {
+    s_.info.requireValidState(q, v);
+    q_ = q;
+    v_ = v;
+    if (s_.info.floating_base) q_.segment<4>(3).normalize();
+    pushState();
+  }
+  const Eigen::VectorXd& q() const override { return q_; }
+  const Eigen::VectorXd& v() const override { return v_; }
+
+  bool pullSkeletonState() override {
+    // Per DoF: Skeleton::getPositions() returns a new vector (allocates).
+    for (Eigen::Index i = 0; i < dart_q_.size(); ++i) {
+      const auto dof = static_cast<std::size_t>(i);
+      const double position = s_.skeleton->getPosition(dof);
+      const double velocity = s_.skeleton->getVelocity(dof);
+      if (!std::isfinite(position) || !std::isfinite(velocity)) return false;  // (q, v) kept
+      dart_q_[i] = position;
+      dart_v_[i] = velocity;
+    }
+    int base_q = 0;
+    if (s_.info.floating_base) {
+      setBasePoseInConfiguration(
+          dart::dynamics::FreeJoint::convertToTransform(dart_q_.head<6>()), q_);
+      base_q = kFloatingBaseNq;
+    }
+    const int base_v = baseV();
+    for (int j = 0; j < s_.info.nj; ++j) q_[base_q + j] = dart_q_[s_.dof_of_v[base_v + j]];
+    for (int i = 0; i < s_.info.nv; ++i) v_[i] = dart_v_[s_.dof_of_v[i]];
+    for (const int i : s_.ball_v) {
+      // DART's ball velocity is the child's angular velocity ω_C = J_r(θ) θ̇.
+      const Eigen::Matrix3d J_r = rightJacobianSO3(ballAngle(i));
+      v_.segment<3>(i) = J_r.partialPivLu().solve(Eigen::Vector3d(v_.segment<3>(i)));
+    }
+    pushState();  // accelerations: the drift values the queries rely on
+    return true;
+  }
+
+  void setSkeletonForces(const Eigen::Ref<const Eigen::VectorXd>& tau_J) const override {
+    if (tau_J.size() != s_.info.nj)
+      throw InvalidStateError("torque vector has " + std::to_string(tau_J.size()) +
+                              " entries, expected nj = " + std::to_string(s_.info.nj));
+    dart_tau_.setZero();
+    const int base_v = baseV();
+    for (int j = 0; j < s_.info.nj; ++j) dart_tau_[s_.dof_of_v[base_v + j]] = tau_J[j];
+    for (const int i : s_.ball_v) {
+      // τ = J_rᵀ t_C: the joint torque t_C in the child frame is J_r⁻ᵀ τ.
+      const Eigen::Matrix3d J_r = rightJacobianSO3(ballAngle(i));
+      const Eigen::Vector3d tau(tau_J.segment<3>(i - base_v));
+      dart_tau_.segment<3>(s_.dof_of_v[i]) = J_r.transpose().partialPivLu().solve(tau);
+    }
+    s_.skeleton->setForces(dart_tau_);
+  }
+
+  Eigen::Isometry3d bodyPose(int body) const override {
+    const LinkFrame& f = s_.links[static_cast<std::size_t>(body)];
+    return f.node->getWorldTransform() * f.X_NL;
+  }
+
+  Vector6d bodyVelocity(int body) const override {
+    const LinkFrame& f = s_.links[static_cast<std::size_t>(body)];
+    Vector6d V;
+    V.head<3>() = f.node->getLinearVelocity(f.X_NL.translation(), Frame::World(), Frame::World());
+    V.tail<3>() = f.node->getAngularVelocity(Frame::World(), Frame::World());
+    return V;
+  }
+
+  void pointJacobian(int body, const Eigen::Vector3d& p_BP,
+                     Eigen::Ref<Matrix6Xd> J_out) const override {
+    // From DART's cached world Jacobian of the body origin ([angular; linear], dependent
+    // coordinates only): shift to the point, ṗ_P = ṗ_O + ω × r, and scatter.
+    const LinkFrame& f = s_.links[static_cast<std::size_t>(body)];
+    const auto& J_O = f.node->getWorldJacobian();
+    const auto& dofs = f.node->getDependentGenCoordIndices();
+    const Eigen::Vector3d r_W = f.node->getWorldTransform().linear() * (f.X_NL * p_BP);
+    J_out.setZero();
+    for (std::size_t k = 0; k < dofs.size(); ++k) {
+      const int i = v_of_dof_[dofs[k]];
+      const Eigen::Vector3d omega = J_O.col(static_cast<Eigen::Index>(k)).head<3>();
+      J_out.col(i).head<3>() = J_O.col(static_cast<Eigen::Index>(k)).tail<3>() + omega.cross(r_W);
+      J_out.col(i).tail<3>() = omega;
+    }
+    for (const int i : s_.ball_v) {  // columns for θ̇ = columns for ω_C times J_r
+      const Eigen::Matrix<double, 6, 3> J_ball = J_out.middleCols<3>(i) * rightJacobianSO3(ballAngle(i));
+      J_out.middleCols<3>(i) = J_ball;
+    }
+  }
+
+  Vector6d pointJacobianDotTimesV(int body, const Eigen::Vector3d& p_BP) const override {
+    // The skeleton's accelerations are zero but for ball joints, which hold J̇_r θ̇: DART's
+    // classical point acceleration is then exactly the drift J̇·v in our coordinates.
+    const LinkFrame& f = s_.links[static_cast<std::size_t>(body)];
+    const Eigen::Vector3d p_N = f.X_NL * p_BP;
+    Vector6d out;
+    out.head<3>() = f.node->getLinearAcceleration(p_N, Frame::World(), Frame::World());
+    out.tail<3>() = f.node->getAngularAcceleration(Frame::World(), Frame::World());
+    return out;
+  }
+
+  void massMatrix(Eigen::Ref<Eigen::MatrixXd> A_out) const override {
+    const int nv = s_.info.nv;
+    if (s_.mass_matrix == DartMassMatrix::kSkeleton) {
+      const Eigen::MatrixXd& M = s_.skeleton->getMassMatrix();
+      for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nv; ++i) A_out(i, j) = M(s_.dof_of_v[i], s_.dof_of_v[j]);
+    } else {
+      // A = Σ_k J_kᵀ M_k J_k over bodies, with DART's cached body Jacobians and spatial
+      // inertias (both in the body frame): no allocation, ~10× faster than
+      // Skeleton::getMassMatrix on the human figure.
+      A_out.setZero();
+      for (std::size_t k = 0; k < s_.skeleton->getNumBodyNodes(); ++k) {
+        const auto* node = s_.skeleton->getBodyNode(k);
+        const auto& J = node->getJacobian();
+        const auto& dofs = node->getDependentGenCoordIndices();
+        const Eigen::Index d = J.cols();
+        auto MJ = inertia_times_J_.leftCols(d);
+        MJ.noalias() = node->getSpatialInertia() * J;
+        for (Eigen::Index b = 0; b < d; ++b) {
+          const int col = v_of_dof_[dofs[static_cast<std::size_t>(b)]];
+          for (Eigen::Index a = 0; a <= b; ++a) {
+            const int row = v_of_dof_[dofs[static_cast<std::size_t>(a)]];
+            const double value = J.col(a).dot(MJ.col(b));
+            A_out(row, col) += value;
+            if (row != col) A_out(col, row) += value;
+          }
+        }
+      }
+    }
+    for (const int i : s_.ball_v) {  // A = Sᵀ A_DART S, S = J_r on the ball's block
+      const Eigen::Matrix3d J_r = rightJacobianSO3(ballAngle(i));
+      ball_cols_.noalias() = A_out.middleCols<3>(i) * J_r;
+      A_out.middleCols<3>(i) = ball_cols_;
+      ball_rows_.noalias() = J_r.transpose() * A_out.middleRows<3>(i);
+      A_out.middleRows<3>(i) = ball_rows_;
+    }
+  }
+
+  void bias(Eigen::Ref<Eigen::VectorXd> b_out) const override {
+    if (s_.ball_v.empty()) {
+      const Eigen::VectorXd& h = s_.skeleton->getCoriolisAndGravityForces();
+      for (int i = 0; i < s_.info.nv; ++i) b_out[i] = h[s_.dof_of_v[i]];
+      return;
+    }
+    // With ball joints v̇_DART = S v̇ + Ṡ v: b = Sᵀ (C + g + M Ṡ v), the inverse dynamics
+    // at the drift accelerations the skeleton holds.
+    s_.skeleton->computeInverseDynamics(false, false, false);
+    for (int i = 0; i < s_.info.nv; ++i)
+      b_out[i] = s_.skeleton->getForce(static_cast<std::size_t>(s_.dof_of_v[i]));
+    for (const int i : s_.ball_v) {
+      const Eigen::Vector3d b_ball = rightJacobianSO3(ballAngle(i)).transpose() * b_out.segment<3>(i);
+      b_out.segment<3>(i) = b_ball;
+    }
+  }
+
+  void forwardDynamics(const Eigen::Ref<const Eigen::VectorXd>& tau_J,
+                       Eigen::Ref<Eigen::VectorXd> vdot_out) const override {
+    setSkeletonForces(tau_J);
+    s_.skeleton->computeForwardDynamics();
+    for (int i = 0; i < s_.info.nv; ++i)
+      vdot_out[i] = s_.skeleton->getAcceleration(static_cast<std::size_t>(s_.dof_of_v[i]));
+    for (const int i : s_.ball_v) {  // v̇_DART = J_r θ̈ + J̇_r θ̇
+      const Eigen::Vector3d rhs =
+          vdot_out.segment<3>(i) - dart_a_.segment<3>(s_.dof_of_v[i]);
+      vdot_out.segment<3>(i) = rightJacobianSO3(ballAngle(i)).partialPivLu().solve(rhs);
+    }
+    s_.skeleton->setAccelerations(dart_a_);  // pointJacobianDotTimesV relies on them
+  }
+
+  void detectContacts(ContactList& out) const override {
+    out.clear();
+    collision_result_.clear();
+    // One more than fits, so that truncation shows up as an overflow.
+    dart::collision::CollisionOption option(true, out.capacity() + 1, collision_filter_);
+    collision_group_->collide(option, &collision_result_);
+    for (const auto& c : collision_result_.getContacts()) {
+      // A persistent Bullet group keeps contact manifolds between calls; points that
+      // have separated (negative depth) linger until the breaking threshold: skip them.
+      if (!(c.penetrationDepth >= 0.0)) continue;
+      const auto* node1 = c.collisionObject1->getShapeFrame()->asShapeNode();
+      const auto* node2 = c.collisionObject2->getShapeFrame()->asShapeNode();
+      if (node1 == nullptr || node2 == nullptr) continue;
+      const bool robot_first = node1->getSkeleton() == s_.skeleton;
+      const auto body = s_.body_of_shape.find(robot_first ? node1 : node2);
+      if (body == s_.body_of_shape.end()) continue;  // a shape added after attaching
+      const auto object = s_.object_of_body.find((robot_first ? node2 : node1)->getBodyNodePtr().get());
+      ContactCandidate cand;
+      cand.body = body->second;
+      cand.object = object == s_.object_of_body.end() ? kGroundObject : object->second;
+      // DART's normal points from object 2 to object 1.
+      cand.n_W = (robot_first ? c.normal : -c.normal).normalized();
+      cand.depth_m = c.penetrationDepth;
+      cand.p_WC = c.point;
+      cand.p_BC = bodyPose(cand.body).inverse() * cand.p_WC;
+      out.push(cand);
+    }
+  }
+
+  void simulateStep(const Eigen::Ref<const Eigen::VectorXd>& tau_J, double dt_s) override {
+    if (!(dt_s > 0.0) || !std::isfinite(dt_s))
+      throw std::invalid_argument("simulateStep: dt must be positive and finite");
+    if (s_.world->getTimeStep() != dt_s) s_.world->setTimeStep(dt_s);
+    // DART asserts (aborts) on NaN inside a step; refuse input that would get there.
+    if (!tau_J.allFinite() || !(v_.cwiseAbs().maxCoeff() < kMaxSimulatedSpeed))
+      throw std::runtime_error("DART simulation refused: non-finite torque or runaway velocity");
+    setSkeletonForces(tau_J);
+    s_.world->step();
+    // A diverged step would reach DART's live assertions on the next call: keep the last
+    // finite state and say so.
+    if (!pullSkeletonState()) {
+      pushState();
+      throw std::runtime_error("DART simulation diverged (non-finite state); state kept");
+    }
+  }
+
+ private:
+  int baseV() const { return s_.info.floating_base ? kFloatingBaseNv : 0; }
+  int baseQ() const { return s_.info.floating_base ? kFloatingBaseNq : 0; }
+  // θ of the ball joint whose first velocity coordinate is @p i.
+  Eigen::Vector3d ballAngle(int i) const { return q_.segment<3>(i - baseV() + baseQ()); }
+
+  // Our (q, v) → DART positions, velocities, and the drift accelerations (zero but for
+  // ball joints, J̇_r θ̇).
+  void pushState() {
+    if (s_.info.floating_base)
+      dart_q_.head<6>() =
+          dart::dynamics::FreeJoint::convertToPositions(basePoseFromConfiguration(q_));
+    const int base_q = baseQ(), base_v = baseV();
+    for (int j = 0; j < s_.info.nj; ++j) dart_q_[s_.dof_of_v[base_v + j]] = q_[base_q + j];
+    for (int i = 0; i < s_.info.nv; ++i) dart_v_[s_.dof_of_v[i]] = v_[i];
+    for (const int i : s_.ball_v) {
+      const Eigen::Vector3d theta = ballAngle(i);
+      const Eigen::Vector3d theta_dot = v_.segment<3>(i);
+      dart_v_.segment<3>(s_.dof_of_v[i]) = rightJacobianSO3(theta) * theta_dot;
+      dart_a_.segment<3>(s_.dof_of_v[i]) = rightJacobianSO3DotTimes(theta, theta_dot);
+    }
+    s_.skeleton->setPositions(dart_q_);
+    s_.skeleton->setVelocities(dart_v_);
+    s_.skeleton->setAccelerations(dart_a_);
+  }
+
+  SkeletonModelSetup s_;
+  std::unique_ptr<dart::collision::CollisionGroup> collision_group_;
+  std::shared_ptr<dart::collision::CollisionFilter> collision_filter_;
+  mutable dart::collision::CollisionResult collision_result_;
+  Eigen::VectorXd q_, v_;
+  Eigen::VectorXd dart_q_, dart_v_, dart_a_;
+  mutable Eigen::VectorXd dart_tau_;
+  std::vector<int> v_of_dof_;            // inverse of dof_of_v
+  mutable Matrix6Xd inertia_times_J_;    // scratch, 6 × ndofs
+  mutable Eigen::MatrixXd ball_cols_, ball_rows_;  // scratch, nv × 3 and 3 × nv
+};
+
+}  // namespace
+
+std::unique_ptr<SkeletonModel> makeSkeletonModel(SkeletonModelSetup setup) {
+  return std::make_unique<DartSkeletonModel>(std::move(setup));
+}
+
+}  // namespace dynfilter::dart_backend
