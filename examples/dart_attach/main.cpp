@@ -68,11 +68,11 @@ int main(int argc, char** argv) {
     const dynfilter::ModelInfo& info = filter.model().info();
     const auto motion = dynfilter::io::readReferenceMotion(argv[2], info);
     const auto& frames = motion.frames;
-    filter.model().setState(frames.front().q, frames.front().v);  // the figure's start pose
+    filter.placeAt(frames.front());  // the figure's start pose
 
     // ---- the user's loop: one filter tick per world step ---------------------------------
     dynfilter::ReferenceFrame ref(info.nq, info.nv);
-    Eigen::VectorXd error(info.nv);
+    Eigen::VectorXd error(info.nv), q(info.nq), v(info.nv);
     double max_base = 0.0, max_tilt = 0.0, max_joint = 0.0;
     std::size_t k = 0;
     const double t_end = frames.back().time_s;
@@ -82,9 +82,9 @@ int main(int argc, char** argv) {
       dynfilter::interpolateReference(true, frames[k], frames[k + 1], t, ref);
       filter.step(ref);
       world->step();
-      filter.model().pullSkeletonState();
-      dynfilter::differenceConfiguration(true, filter.model().q(), ref.q, error);
-      max_base = std::max(max_base, (filter.model().q().head<3>() - ref.q.head<3>()).norm());
+      filter.model().readSkeletonState(q, v);  // what the world did
+      dynfilter::differenceConfiguration(true, q, ref.q, error);
+      max_base = std::max(max_base, (q.head<3>() - ref.q.head<3>()).norm());
       max_tilt = std::max(max_tilt, error.segment<3>(3).norm());
       max_joint = std::max(max_joint, error.tail(info.nj).cwiseAbs().maxCoeff());
     }
@@ -92,7 +92,7 @@ int main(int argc, char** argv) {
     std::printf("dart_attach: %s mode, %ld ticks (%.2f s): max base error %.4f m, max tilt %.4f "
                 "rad, max joint error %.4f rad, final base height %.4f m: %s\n",
                 qp ? "qp" : "paper", ticks, ticks * options.dt_s, max_base, max_tilt, max_joint,
-                filter.model().q()[2], stood ? "STOOD" : "FELL");
+                q[2], stood ? "STOOD" : "FELL");
     return stood ? 0 : 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dart_attach: %s\n", e.what());

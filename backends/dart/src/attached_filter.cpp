@@ -46,7 +46,7 @@ void AttachedFilter::restoreSkeletonState() {
 const FilterOutput& AttachedFilter::step(const ReferenceFrame& reference) {
   saveSkeletonState();
   const ModelInfo& info = model_->info();
-  bool measured = model_->pullSkeletonState();
+  bool measured = model_->readSkeletonState(q_measured_, v_measured_);
   if (measured && !started_) {
     try {
       filter_->reset(reference);  // contacts and feedback start on the reference ...
@@ -55,11 +55,9 @@ const FilterOutput& AttachedFilter::step(const ReferenceFrame& reference) {
       measured = false;  // an invalid first reference: nothing to start on
     }
   }
-  if (measured) measured = filter_->setMeasuredState(model_->q(), model_->v());  // ... the state is the world's
+  if (measured) measured = filter_->setMeasuredState(q_measured_, v_measured_);  // ... the state is the world's
   tau_applied_.setZero();
   if (measured) {
-    q_measured_ = model_->q();
-    v_measured_ = model_->v();
     const FilterOutput& out = filter_->step(reference);
     if (out.tau_J.allFinite())
       tau_applied_ = out.tau_J.cwiseMax(-info.tau_max).cwiseMin(info.tau_max);
@@ -69,6 +67,12 @@ const FilterOutput& AttachedFilter::step(const ReferenceFrame& reference) {
   restoreSkeletonState();
   model_->setSkeletonForces(tau_applied_);
   return filter_->output();
+}
+
+void AttachedFilter::placeAt(const ReferenceFrame& reference) {
+  filter_->reset(reference);
+  model_->setState(filter_->q(), filter_->v());
+  started_ = true;
 }
 
 }  // namespace dynfilter::dart_backend

@@ -57,6 +57,8 @@ class DartSkeletonModel final : public SkeletonModel {
         dart_v_(s_.skeleton->getNumDofs()),
         dart_a_(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(s_.skeleton->getNumDofs()))),
         dart_tau_(s_.skeleton->getNumDofs()),
+        read_q_(s_.skeleton->getNumDofs()),
+        read_v_(s_.skeleton->getNumDofs()),
         v_of_dof_(s_.skeleton->getNumDofs(), -1),
         inertia_times_J_(6, s_.skeleton->getNumDofs()),
         ball_cols_(s_.info.nv, kBallJointDofs),
@@ -92,30 +94,35 @@ class DartSkeletonModel final : public SkeletonModel {
   const Eigen::VectorXd& v() const override { return v_; }
 
   bool pullSkeletonState() override {
+    if (!readSkeletonState(q_, v_)) return false;
+    pushState();  // accelerations: the drift values the queries rely on
+    return true;
+  }
+
+  bool readSkeletonState(Eigen::Ref<Eigen::VectorXd> q,
+                         Eigen::Ref<Eigen::VectorXd> v) const override {
+    if (q.size() != s_.info.nq || v.size() != s_.info.nv) return false;
     // Per DoF: Skeleton::getPositions() returns a new vector (allocates).
-    for (Eigen::Index i = 0; i < dart_q_.size(); ++i) {
+    for (Eigen::Index i = 0; i < read_q_.size(); ++i) {
       const auto dof = static_cast<std::size_t>(i);
-      const double position = s_.skeleton->getPosition(dof);
-      const double velocity = s_.skeleton->getVelocity(dof);
-      if (!std::isfinite(position) || !std::isfinite(velocity)) return false;  // (q, v) kept
-      dart_q_[i] = position;
-      dart_v_[i] = velocity;
+      read_q_[i] = s_.skeleton->getPosition(dof);
+      read_v_[i] = s_.skeleton->getVelocity(dof);
     }
+    if (!read_q_.allFinite() || !read_v_.allFinite()) return false;
     int base_q = 0;
     if (s_.info.floating_base) {
       setBasePoseInConfiguration(
-          dart::dynamics::FreeJoint::convertToTransform(dart_q_.head<6>()), q_);
+          dart::dynamics::FreeJoint::convertToTransform(read_q_.head<6>()), q);
       base_q = kFloatingBaseNq;
     }
     const int base_v = baseV();
-    for (int j = 0; j < s_.info.nj; ++j) q_[base_q + j] = dart_q_[s_.dof_of_v[base_v + j]];
-    for (int i = 0; i < s_.info.nv; ++i) v_[i] = dart_v_[s_.dof_of_v[i]];
+    for (int j = 0; j < s_.info.nj; ++j) q[base_q + j] = read_q_[s_.dof_of_v[base_v + j]];
+    for (int i = 0; i < s_.info.nv; ++i) v[i] = read_v_[s_.dof_of_v[i]];
     for (const int i : s_.ball_v) {
       // DART's ball velocity is the child's angular velocity ω_C = J_r(θ) θ̇.
-      const Eigen::Matrix3d J_r = rightJacobianSO3(ballAngle(i));
-      v_.segment<3>(i) = J_r.partialPivLu().solve(Eigen::Vector3d(v_.segment<3>(i)));
+      const Eigen::Matrix3d J_r = rightJacobianSO3(q.segment<3>(i - base_v + base_q));
+      v.segment<3>(i) = J_r.partialPivLu().solve(Eigen::Vector3d(v.segment<3>(i)));
     }
-    pushState();  // accelerations: the drift values the queries rely on
     return true;
   }
 
@@ -328,6 +335,7 @@ class DartSkeletonModel final : public SkeletonModel {
   Eigen::VectorXd q_, v_;
   Eigen::VectorXd dart_q_, dart_v_, dart_a_;
   mutable Eigen::VectorXd dart_tau_;
+  mutable Eigen::VectorXd read_q_, read_v_;  // readSkeletonState scratch
   std::vector<int> v_of_dof_;            // inverse of dof_of_v
   mutable Matrix6Xd inertia_times_J_;    // scratch, 6 × ndofs
   mutable Eigen::MatrixXd ball_cols_, ball_rows_;  // scratch, nv × 3 and 3 × nv

@@ -23,7 +23,7 @@ const FilterOutput& AttachedFilter::step(const ReferenceFrame& reference) {
     std::copy_n(dBodyGetLinearVel(bodies[k]), 3, s.v.begin());
     std::copy_n(dBodyGetAngularVel(bodies[k]), 3, s.w.begin());
   }
-  bool measured = model_->pullBodyState();
+  bool measured = model_->readBodyState(q_measured_, v_measured_);
   if (measured && !started_) {
     try {
       filter_->reset(reference);  // contacts and feedback start on the reference ...
@@ -32,11 +32,9 @@ const FilterOutput& AttachedFilter::step(const ReferenceFrame& reference) {
       measured = false;  // an invalid first reference: nothing to start on
     }
   }
-  if (measured) measured = filter_->setMeasuredState(model_->q(), model_->v());  // ... the state is the world's
+  if (measured) measured = filter_->setMeasuredState(q_measured_, v_measured_);  // ... the state is the world's
   tau_applied_.setZero();
   if (measured) {
-    q_measured_ = model_->q();
-    v_measured_ = model_->v();
     const FilterOutput& out = filter_->step(reference);
     const ModelInfo& info = model_->info();
     if (out.tau_J.allFinite())
@@ -53,6 +51,12 @@ const FilterOutput& AttachedFilter::step(const ReferenceFrame& reference) {
   }
   model_->addJointTorques(tau_applied_);
   return filter_->output();
+}
+
+void AttachedFilter::placeAt(const ReferenceFrame& reference) {
+  filter_->reset(reference);
+  model_->setState(filter_->q(), filter_->v());
+  started_ = true;
 }
 
 }  // namespace dynfilter::ode_backend

@@ -136,6 +136,13 @@ class OdeModel final : public OdeBodyModel {
     return true;
   }
 
+  bool readBodyState(Eigen::Ref<Eigen::VectorXd> q, Eigen::Ref<Eigen::VectorXd> v) const override {
+    if (q.size() != info_.nq || v.size() != info_.nv) return false;
+    q = q_;  // hinge angles continue from the model's
+    readBodies(q, v);
+    return q.allFinite() && v.allFinite();
+  }
+
   void addJointTorques(const Eigen::Ref<const Eigen::VectorXd>& tau_J) const override {
     requireTorques(tau_J);
     for (const OdeNode& node : ode_.nodes()) {
@@ -614,7 +621,10 @@ class OdeModel final : public OdeBodyModel {
   /// ODE bodies → (q, v) after a step: the base from the root body (its CoM offset taken
   /// off), each joint coordinate from its child's pose and velocity relative to the
   /// parent's joint frame.
-  void pullState() {
+  void pullState() { readBodies(q_, v_); }
+
+  /// Reads (q, v) into @p q and @p v (hinge angles continued from @p q's values).
+  void readBodies(Eigen::Ref<Eigen::VectorXd> q, Eigen::Ref<Eigen::VectorXd> v) const {
     const auto& nodes = ode_.nodes();
     for (std::size_t k = 0; k < nodes.size(); ++k) {
       const OdeNode& n = nodes[k];
@@ -629,13 +639,13 @@ class OdeModel final : public OdeBodyModel {
         const dReal* quat = dBodyGetQuaternion(n.body);  // (w, x, y, z), unit
         Eigen::Vector4d wxyz(quat[0], quat[1], quat[2], quat[3]);
         wxyz.normalize();
-        q_.head<3>() = p_WN_[k];
-        q_.segment<4>(3) = wxyz;
+        q.head<3>() = p_WN_[k];
+        q.segment<4>(3) = wxyz;
         // R from the stored quaternion, so that q and the base velocity agree exactly.
         const Eigen::Matrix3d R =
             Eigen::Quaterniond(wxyz[0], wxyz[1], wxyz[2], wxyz[3]).toRotationMatrix();
-        v_.head<3>() = R.transpose() * v_WN_[k];
-        v_.segment<3>(3) = R.transpose() * w_WN_[k];
+        v.head<3>() = R.transpose() * v_WN_[k];
+        v.segment<3>(3) = R.transpose() * w_WN_[k];
         continue;
       }
       if (n.fixed) continue;
@@ -645,14 +655,14 @@ class OdeModel final : public OdeBodyModel {
       const Eigen::Vector3d p_WJ = p_WN_[P] + R_WN_[P] * n.X_PJ.translation();
       if (n.ball) {
         const Eigen::Vector3d theta = logSO3(R_WJ.transpose() * R_WN_[k]);
-        q_.segment<3>(info_.configurationIndex(n.coordinate)) = theta;
-        v_.segment<3>(info_.velocityIndex(n.coordinate)) = rightJacobianSO3(theta).partialPivLu().solve(
+        q.segment<3>(info_.configurationIndex(n.coordinate)) = theta;
+        v.segment<3>(info_.velocityIndex(n.coordinate)) = rightJacobianSO3(theta).partialPivLu().solve(
             Eigen::Vector3d(R_WN_[k].transpose() * (w_WN_[k] - parent.w)));
         continue;
       }
       const Eigen::Vector3d a = R_WJ * n.axis_J;
-      double& qj = q_[info_.configurationIndex(n.coordinate)];
-      double& qd = v_[info_.velocityIndex(n.coordinate)];
+      double& qj = q[info_.configurationIndex(n.coordinate)];
+      double& qd = v[info_.velocityIndex(n.coordinate)];
       if (n.prismatic) {
         qj = n.axis_J.dot(R_WJ.transpose() * (p_WN_[k] - p_WJ));
         qd = a.dot(v_WN_[k] - parent.pointVelocity(p_WN_[k]));
@@ -707,8 +717,8 @@ class OdeModel final : public OdeBodyModel {
   Eigen::VectorXd q_, v_;
   Eigen::VectorXd q_before_step_, v_before_step_;  // kept when a step diverges
   // Forward / inverse kinematics scratch per node: frame N in world and its velocities.
-  std::vector<Eigen::Matrix3d> R_WN_;
-  std::vector<Eigen::Vector3d> p_WN_, w_WN_, v_WN_;
+  mutable std::vector<Eigen::Matrix3d> R_WN_;
+  mutable std::vector<Eigen::Vector3d> p_WN_, w_WN_, v_WN_;
   // Query scratch (the queries are const and must not allocate).
   mutable Matrix6Xd J_compact_, MJ_compact_;
   mutable std::vector<int> columns_;

@@ -42,6 +42,12 @@ class AttachedFilter {
                  const dart::simulation::WorldPtr& world, const FilterOptions& options,
                  const QpSolverFactory& qp_solver = {}, const AttachOptions& attach = {});
 
+  /// Starts the filter on @p reference and moves the robot there: the reference's state,
+  /// raised along world z out of any penetration of the environment (DynamicsFilter::
+  /// reset). Optional — step() alone starts the filter on its first reference and leaves
+  /// the robot where it is. Throws InvalidStateError on an invalid frame.
+  void placeAt(const ReferenceFrame& reference);
+
   /// One filter tick; call it once per world step, before world->step(). @p reference is
   /// in the model's coordinates (model().info(): DART's DoF order and names). The first
   /// call starts the filter (its contacts and feedback) on @p reference; every call

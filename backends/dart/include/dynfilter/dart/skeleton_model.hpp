@@ -56,6 +56,12 @@ class SkeletonModel : public IDynamicsModel {
   /// (q, v) ← the skeleton's current positions and velocities (e.g. after world->step()).
   /// Returns false, keeping the previous (q, v), when they are not finite. No allocation.
   virtual bool pullSkeletonState() = 0;
+  /// The skeleton's current state in the model's coordinates, leaving the skeleton and
+  /// the model's (q, v) as they are (what a controller reads between world steps).
+  /// @p q dim nq, @p v dim nv; returns false on a size mismatch or a non-finite state.
+  /// No allocation.
+  virtual bool readSkeletonState(Eigen::Ref<Eigen::VectorXd> q,
+                                 Eigen::Ref<Eigen::VectorXd> v) const = 0;
   /// Sets the skeleton's joint forces (Skeleton::setForces) to @p tau_J (dim nj, in the
   /// model's coordinates; a ball joint's three become the joint torque J_r⁻ᵀ τ); the base
   /// DoFs get zero. No allocation; throws InvalidStateError on a size mismatch.

@@ -39,6 +39,12 @@ class AttachedFilter {
   AttachedFilter(const OdeRobotRefs& robot, const FilterOptions& options,
                  const QpSolverFactory& qp_solver = {});
 
+  /// Starts the filter on @p reference and moves the robot there: the reference's state,
+  /// raised along world z out of any penetration of the environment (DynamicsFilter::
+  /// reset). Optional — step() alone starts the filter on its first reference and leaves
+  /// the robot where it is. Throws InvalidStateError on an invalid frame.
+  void placeAt(const ReferenceFrame& reference);
+
   /// One filter tick; call it once per world step, before dWorldStep. @p reference is in
   /// the model's coordinates (model().info()). The first call starts the filter on
   /// @p reference; every call starts the tick from the bodies' current state. Adds the

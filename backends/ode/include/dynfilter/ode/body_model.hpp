@@ -35,6 +35,13 @@ class OdeBodyModel : public IDynamicsModel {
   /// bodies are posed by forward kinematics from it (exactly on their joints). Returns
   /// false, changing nothing, when a body's state is not finite. No allocation.
   virtual bool pullBodyState() = 0;
+  /// The bodies' current state in the model's coordinates, leaving the bodies and the
+  /// model's (q, v) as they are (what a controller reads between world steps: posing the
+  /// bodies onto their joints every step, as pullBodyState does, changes the user's
+  /// simulation — measured: it made the figure's closed loop diverge within 20 ms).
+  /// @p q dim nq, @p v dim nv; returns false on a size mismatch or a non-finite state.
+  /// No allocation.
+  virtual bool readBodyState(Eigen::Ref<Eigen::VectorXd> q, Eigen::Ref<Eigen::VectorXd> v) const = 0;
   /// Adds the joint torques @p tau_J (dim nj) through ODE's joint API for the next
   /// dWorldStep: dJointAddHingeTorque, dJointAddSliderForce; a ball joint's three as the
   /// torque J_r⁻ᵀ τ on the child body and its opposite on the parent (dBodyAddTorque; ODE
