@@ -3,6 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace dynfilter::dart_backend {
 
@@ -10,14 +11,20 @@ AttachedFilter::AttachedFilter(const dart::dynamics::SkeletonPtr& skeleton,
                                const dart::simulation::WorldPtr& world,
                                const FilterOptions& options, const QpSolverFactory& qp_solver,
                                const AttachOptions& attach)
-    : model_(attachDartModel(skeleton, world, attach)) {
+    : AttachedFilter(attachDartModel(skeleton, world, attach), options, qp_solver) {}
+
+AttachedFilter::AttachedFilter(std::unique_ptr<SkeletonModel> model, const FilterOptions& options,
+                               const QpSolverFactory& qp_solver)
+    : model_(std::move(model)) {
+  if (model_ == nullptr) throw std::invalid_argument("AttachedFilter: null model");
+  const auto& world = model_->world();
   if (std::abs(world->getTimeStep() - options.dt_s) > 1e-12 * options.dt_s)
     throw std::invalid_argument("AttachedFilter: the world's time step (" +
                                 std::to_string(world->getTimeStep()) +
                                 " s) differs from the filter's dt_s (" +
                                 std::to_string(options.dt_s) + " s)");
   filter_ = std::make_unique<DynamicsFilter>(*model_, options, qp_solver);
-  const auto n = static_cast<Eigen::Index>(skeleton->getNumDofs());
+  const auto n = static_cast<Eigen::Index>(model_->skeleton()->getNumDofs());
   saved_q_.resize(n);
   saved_v_.resize(n);
   saved_a_.resize(n);
@@ -40,7 +47,8 @@ void AttachedFilter::restoreSkeletonState() {
   auto& skeleton = *model_->skeleton();
   skeleton.setPositions(saved_q_);
   skeleton.setVelocities(saved_v_);
-  skeleton.setAccelerations(saved_a_);
+  for (Eigen::Index i = 0; i < saved_a_.size(); ++i)  // setAccelerations allocates
+    skeleton.setAcceleration(static_cast<std::size_t>(i), saved_a_[i]);
 }
 
 const FilterOutput& AttachedFilter::step(const ReferenceFrame& reference) {

@@ -64,10 +64,13 @@ class DartSkeletonModel final : public SkeletonModel {
         ball_cols_(s_.info.nv, kBallJointDofs),
         ball_rows_(kBallJointDofs, s_.info.nv) {
     for (int i = 0; i < s_.info.nv; ++i) v_of_dof_[static_cast<std::size_t>(s_.dof_of_v[i])] = i;
-    // One collision group over every skeleton in the world, made by the world's own
-    // detector and subscribed to the skeletons so that it follows their shapes.
-    collision_group_ =
-        s_.world->getConstraintSolver()->getCollisionDetector()->createCollisionGroup();
+    // One collision group over every skeleton in the world, made by a detector of the
+    // world's kind and subscribed to the skeletons so that it follows their shapes. Not
+    // the world's detector instance itself: its groups share one engine object per shape,
+    // and a Bullet object in two collision worlds keeps only the last one's broadphase
+    // handle, so the world's own contacts would go stale.
+    detector_ = s_.world->getConstraintSolver()->getCollisionDetector()->cloneWithoutCollisionObjects();
+    collision_group_ = detector_->createCollisionGroup();
     for (std::size_t k = 0; k < s_.world->getNumSkeletons(); ++k)
       collision_group_->subscribeTo(s_.world->getSkeleton(k));
     collision_filter_ = std::make_shared<RobotVersusOthersFilter>(s_.skeleton.get());
@@ -253,7 +256,7 @@ class DartSkeletonModel final : public SkeletonModel {
           vdot_out.segment<3>(i) - dart_a_.segment<3>(s_.dof_of_v[i]);
       vdot_out.segment<3>(i) = rightJacobianSO3(ballAngle(i)).partialPivLu().solve(rhs);
     }
-    s_.skeleton->setAccelerations(dart_a_);  // pointJacobianDotTimesV relies on them
+    setSkeletonAccelerations();  // pointJacobianDotTimesV relies on them
   }
 
   void detectContacts(ContactList& out) const override {
@@ -325,10 +328,17 @@ class DartSkeletonModel final : public SkeletonModel {
     }
     s_.skeleton->setPositions(dart_q_);
     s_.skeleton->setVelocities(dart_v_);
-    s_.skeleton->setAccelerations(dart_a_);
+    setSkeletonAccelerations();
+  }
+
+  // Per DoF: Skeleton::setAccelerations allocates (DART 6.12).
+  void setSkeletonAccelerations() const {
+    for (Eigen::Index i = 0; i < dart_a_.size(); ++i)
+      s_.skeleton->setAcceleration(static_cast<std::size_t>(i), dart_a_[i]);
   }
 
   SkeletonModelSetup s_;
+  std::shared_ptr<dart::collision::CollisionDetector> detector_;
   std::unique_ptr<dart::collision::CollisionGroup> collision_group_;
   std::shared_ptr<dart::collision::CollisionFilter> collision_filter_;
   mutable dart::collision::CollisionResult collision_result_;

@@ -2,12 +2,19 @@
 
 #include <algorithm>
 #include <exception>
+#include <stdexcept>
+#include <utility>
 
 namespace dynfilter::ode_backend {
 
 AttachedFilter::AttachedFilter(const OdeRobotRefs& robot, const FilterOptions& options,
                                const QpSolverFactory& qp_solver)
-    : model_(attachOdeModel(robot)),
+    : AttachedFilter(attachOdeModel(robot), options, qp_solver) {}
+
+AttachedFilter::AttachedFilter(std::unique_ptr<OdeBodyModel> model, const FilterOptions& options,
+                               const QpSolverFactory& qp_solver)
+    : model_(model != nullptr ? std::move(model)
+                              : throw std::invalid_argument("AttachedFilter: null model")),
       filter_(std::make_unique<DynamicsFilter>(*model_, options, qp_solver)),
       saved_(model_->bodies().size()),
       tau_applied_(Eigen::VectorXd::Zero(model_->nj())),

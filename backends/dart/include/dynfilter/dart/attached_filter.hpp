@@ -48,6 +48,11 @@ class AttachedFilter {
   /// the robot where it is. Throws InvalidStateError on an invalid frame.
   void placeAt(const ReferenceFrame& reference);
 
+  /// The same over a model made beforehand (attachDartModel, or any SkeletonModel whose
+  /// skeleton is in a world of time step @p options.dt_s).
+  AttachedFilter(std::unique_ptr<SkeletonModel> model, const FilterOptions& options,
+                 const QpSolverFactory& qp_solver = {});
+
   /// One filter tick; call it once per world step, before world->step(). @p reference is
   /// in the model's coordinates (model().info(): DART's DoF order and names). The first
   /// call starts the filter (its contacts and feedback) on @p reference; every call

@@ -45,6 +45,10 @@ class AttachedFilter {
   /// the robot where it is. Throws InvalidStateError on an invalid frame.
   void placeAt(const ReferenceFrame& reference);
 
+  /// The same over a model made beforehand (attachOdeModel or any OdeBodyModel).
+  AttachedFilter(std::unique_ptr<OdeBodyModel> model, const FilterOptions& options,
+                 const QpSolverFactory& qp_solver = {});
+
   /// One filter tick; call it once per world step, before dWorldStep. @p reference is in
   /// the model's coordinates (model().info()). The first call starts the filter on
   /// @p reference; every call starts the tick from the bodies' current state. Adds the
