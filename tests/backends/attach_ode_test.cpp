@@ -22,8 +22,8 @@ TEST(AttachOde, UserBodiesAgreeWithTheUrdfBackendsOnTheHumanFigure) {
   EXPECT_NEAR(attached->info().total_mass, dart->info().total_mass, 1e-9);
   const double vs_dart = worstGap(*dart, *attached, 20, 3);
   const double vs_ode = worstGap(*ode, *attached, 20, 4);
-  RecordProperty("worst_vs_dart", std::to_string(vs_dart));
-  RecordProperty("worst_vs_ode", std::to_string(vs_ode));
+  RecordProperty("worst_vs_dart", test::scientific(vs_dart));
+  RecordProperty("worst_vs_ode", test::scientific(vs_ode));
   EXPECT_LT(vs_dart, kTolerance);
   EXPECT_LT(vs_ode, kTolerance);
 }

@@ -2,6 +2,7 @@
 // Shared by the attach tests: comparing an attached model with a URDF-built one whose
 // joints may come in another order.
 #include <algorithm>
+#include <cstdio>
 #include <random>
 #include <string>
 #include <vector>
@@ -13,6 +14,14 @@
 #include "dynfilter/core/model_sampling.hpp"
 
 namespace dynfilter {
+namespace test {
+/// @p x as "1.23e-12" (std::to_string prints 0.000000).
+inline std::string scientific(double x) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.3g", x);
+  return buffer;
+}
+}  // namespace test
 
 constexpr double kTolerance = 1e-9;
 
