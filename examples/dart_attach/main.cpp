@@ -55,9 +55,9 @@ int main(int argc, char** argv) {
     world->getConstraintSolver()->setCollisionDetector(
         dart::collision::BulletCollisionDetector::create());
     // Contacts a little softer than DART's default CFM (1e-5), so that a sole rests slightly
-    // inside the ground. With hard contacts the filter holds the soles exactly at the surface,
-    // where Bullet's box-box normals degenerate at zero depth: the feet rock within 0.1 s
-    // and the figure falls (measured; 1e-3 stands, 1e-2 sinks and falls too).
+    // inside the ground. With hard contacts the filter holds the soles exactly at the surface;
+    // at zero depth Bullet's box-box contact turns degenerate, the feet rock and the figure
+    // falls within about a second (measured; 1e-3 stands, 1e-2 sinks and falls too).
     dart::constraint::ContactConstraint::setConstraintForceMixing(1e-3);
     dart::utils::DartLoader loader;
     SkeletonPtr robot = loader.parseSkeleton(std::filesystem::absolute(argv[1]).string());

@@ -342,7 +342,7 @@ class OdeModel final : public OdeBodyModel {
         contact.geom = contact_geoms_[static_cast<std::size_t>(i)];
         contact.fdir1[0] = contact.fdir1[1] = contact.fdir1[2] = 0.0;
         dJointID joint = dJointCreateContact(ode_.world(), ode_.contactGroup(), &contact);
-        dJointAttach(joint, body, nullptr);
+        dJointAttach(joint, body, dGeomGetBody(env_geom));  // null: static geometry
         ++pass.joints_created;
       }
       return;

@@ -17,13 +17,15 @@
 ///
 /// State: setState() writes the skeleton's positions and velocities (and accelerations,
 /// kept at the values that make DART's classical accelerations the drift J̇·v); queries
-/// answer for that state. pullSkeletonState() reads back what the world integrated. On a
-/// user's skeleton, whoever steps the world owns the state: AttachedFilter saves it before
-/// a filter tick and restores it after.
+/// answer for that state. readSkeletonState() reads what the world integrated without
+/// touching anything; pullSkeletonState() makes it the model's state. On a user's
+/// skeleton, whoever steps the world owns the state: AttachedFilter saves it before a
+/// filter tick and restores it after.
 ///
-/// A, b and forward dynamics are the rigid-body dynamics of the skeleton: joint springs,
-/// damping, Coulomb friction and external forces the user set on the skeleton are not part
-/// of them (they are the world's business when it steps).
+/// A and b are the rigid-body dynamics of the skeleton: joint springs, damping, Coulomb
+/// friction and external forces the user set on it are not part of them (they are the
+/// world's business when it steps; forwardDynamics, DART's own, does include springs,
+/// damping and external forces).
 
 #include <memory>
 
