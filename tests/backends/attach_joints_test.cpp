@@ -12,6 +12,7 @@
 #include <dart/dynamics/FreeJoint.hpp>
 #include <dart/dynamics/PrismaticJoint.hpp>
 #include <dart/dynamics/RevoluteJoint.hpp>
+#include <dart/dynamics/UniversalJoint.hpp>
 #include <dart/dynamics/WeldJoint.hpp>
 #include <dart/simulation/World.hpp>
 #include <gtest/gtest.h>
@@ -19,6 +20,7 @@
 
 #include "attach_support.hpp"
 #include "dynfilter/core/ball_joint.hpp"
+#include "dynfilter/core/errors.hpp"
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/dart/skeleton_model.hpp"
 #include "dynfilter/ode/body_model.hpp"
@@ -45,6 +47,13 @@ struct Part {
   Eigen::Vector3d c_C;
   Eigen::Matrix3d I_C;
 };
+
+// Where a fixed base is welded to the world.
+const Eigen::Isometry3d kBasePose = [] {
+  Eigen::Isometry3d X = translation(0.2, -0.1, 1.0);
+  X.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0, 1, 1).normalized()).toRotationMatrix();
+  return X;
+}();
 
 std::vector<Part> mechanism() {
   Eigen::Matrix3d I;
@@ -80,6 +89,7 @@ dart::dynamics::BodyNode* addPart(const dart::dynamics::SkeletonPtr& skeleton,
 }
 
 struct DartMechanism {
+  explicit DartMechanism(bool fixed_base = false) : DartMechanism(fixed_base, 0) {}
   template <typename JointT>
   dart::dynamics::BodyNode* add(dart::dynamics::BodyNode* parent, const Part& p,
                                 const dart::dynamics::BodyNode::Properties& body) {
@@ -88,9 +98,13 @@ struct DartMechanism {
 
   dart::simulation::WorldPtr world = dart::simulation::World::create("user");
   dart::dynamics::SkeletonPtr skeleton = dart::dynamics::Skeleton::create("mechanism");
-  DartMechanism() {
+  DartMechanism(bool fixed_base, int) {
     std::vector<dart::dynamics::BodyNode*> nodes;
-    for (const Part& p : mechanism()) {
+    for (Part p : mechanism()) {
+      if (fixed_base && p.kind == Part::kFree) {
+        p.kind = Part::kWeld;
+        p.X_PJ = kBasePose;
+      }
       dart::dynamics::BodyNode::Properties body;
       body.mName = p.name;
       body.mInertia = dart::dynamics::Inertia(p.mass, p.c_C, p.I_C);
@@ -125,7 +139,7 @@ struct OdeMechanism {
   dWorldID world;
   dSpaceID space;
   ode_backend::OdeRobotRefs refs;
-  OdeMechanism() {
+  explicit OdeMechanism(bool fixed_base = false) {
     dInitODE2(0);
     world = dWorldCreate();
     dWorldSetGravity(world, 0, 0, -9.81);
@@ -136,7 +150,7 @@ struct OdeMechanism {
     std::vector<Eigen::Isometry3d> X_WC;
     std::vector<dBodyID> bodies;
     for (const Part& p : mechanism()) {
-      Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+      Eigen::Isometry3d X = fixed_base ? kBasePose : Eigen::Isometry3d::Identity();
       if (p.parent >= 0) X = X_WC[static_cast<std::size_t>(p.parent)] * p.X_PJ * p.X_CJ.inverse();
       X_WC.push_back(X);
       dBodyID body = dBodyCreate(world);
@@ -154,7 +168,15 @@ struct OdeMechanism {
       dBodySetRotation(body, R);
       bodies.push_back(body);
       refs.bodies.push_back({p.name, body, translation(-p.c_C.x(), -p.c_C.y(), -p.c_C.z())});
-      if (p.parent < 0) continue;
+      if (p.parent < 0) {
+        if (fixed_base) {  // welded to the world where it is
+          dJointID weld = dJointCreateFixed(world, nullptr);
+          dJointAttach(weld, body, nullptr);
+          dJointSetFixed(weld);
+          refs.joints.push_back({"base_weld", weld});
+        }
+        continue;
+      }
       const dBodyID parent = bodies[static_cast<std::size_t>(p.parent)];
       const Eigen::Isometry3d X_WJ = X * p.X_CJ;
       const Eigen::Vector3d o = X_WJ.translation();
@@ -201,7 +223,7 @@ void mechanismState(const ModelInfo& info, std::mt19937& rng, Eigen::VectorXd& q
   v.resize(info.nv);
   for (int i = 0; i < info.nq; ++i) q[i] = u(rng);
   for (int i = 0; i < info.nv; ++i) v[i] = 2.0 * u(rng);
-  q.segment<4>(3).normalize();
+  if (info.floating_base) q.segment<4>(3).normalize();
 }
 
 TEST(AttachJoints, DartAndOdeAgreeOnBallHingeSliderAndWeld) {
@@ -335,6 +357,83 @@ TEST(AttachJoints, TorquesThroughEachEnginesApiMoveItAsForwardDynamicsSays) {
     dWorldStep(ode.world, dt);
     ASSERT_TRUE(o->readBodyState(q_read, v_read));
     EXPECT_LT(relative(v_read / dt, vdot), 1e-3) << "ODE, state " << s;  // ODE's joint ERP
+  }
+}
+
+TEST(AttachJoints, AFixedBaseAgreesToo) {
+  DartMechanism dart(true);
+  OdeMechanism ode(true);
+  auto d = dart_backend::attachDartModel(dart.skeleton, dart.world);
+  auto o = ode_backend::attachOdeModel(ode.refs);
+  EXPECT_FALSE(d->info().floating_base);
+  EXPECT_FALSE(o->info().floating_base);
+  ASSERT_EQ(d->nv(), 5);
+  ASSERT_EQ(o->nv(), 5);
+  std::mt19937 rng(5);
+  Eigen::VectorXd q, v;
+  Eigen::MatrixXd A_d(5, 5), A_o(5, 5);
+  Eigen::VectorXd b_d(5), b_o(5);
+  Matrix6Xd J_d(6, 5), J_o(6, 5);
+  const Eigen::Vector3d p(0.02, -0.03, 0.04);
+  double worst = 0.0;
+  for (int s = 0; s < 10; ++s) {
+    mechanismState(d->info(), rng, q, v);
+    d->setState(q, v);
+    o->setState(q, v);
+    d->massMatrix(A_d);
+    o->massMatrix(A_o);
+    d->bias(b_d);
+    o->bias(b_o);
+    worst = std::max({worst, relative(A_o, A_d), relative(b_o, b_d)});
+    for (int body = 0; body < 5; ++body) {
+      EXPECT_LT(relative(o->bodyPose(body).matrix(), d->bodyPose(body).matrix()), kTolerance) << body;
+      d->pointJacobian(body, p, J_d);
+      o->pointJacobian(body, p, J_o);
+      worst = std::max({worst, relative(J_o, J_d),
+                        relative(o->pointJacobianDotTimesV(body, p), d->pointJacobianDotTimesV(body, p))});
+    }
+  }
+  RecordProperty("worst_dart_vs_ode", test::scientific(worst));
+  EXPECT_LT(worst, kTolerance);
+}
+
+TEST(AttachJoints, UnsupportedJointsAreRefusedByName) {
+  {
+    DartMechanism dart;
+    dart::dynamics::UniversalJoint::Properties props;
+    props.mName = "wrist_universal";
+    dart.skeleton->createJointAndBodyNodePair<dart::dynamics::UniversalJoint>(
+        dart.skeleton->getBodyNode(2), props, dart::dynamics::BodyNode::AspectProperties("hand"));
+    try {
+      dart_backend::attachDartModel(dart.skeleton, dart.world);
+      ADD_FAILURE() << "a UniversalJoint was accepted";
+    } catch (const ModelError& e) {
+      EXPECT_NE(std::string(e.what()).find("wrist_universal"), std::string::npos) << e.what();
+    }
+  }
+  {
+    OdeMechanism ode;
+    dBodyID extra = dBodyCreate(ode.world);
+    dMass m;
+    dMassSetSphereTotal(&m, 1.0, 0.1);
+    dBodySetMass(extra, &m);
+    dJointID universal = dJointCreateUniversal(ode.world, nullptr);
+    dJointAttach(universal, extra, ode.refs.bodies[2].body);
+    ode.refs.bodies.push_back({"hand", extra});
+    ode.refs.joints.push_back({"wrist_universal", universal});
+    try {
+      ode_backend::attachOdeModel(ode.refs);
+      ADD_FAILURE() << "a universal joint was accepted";
+    } catch (const ModelError& e) {
+      EXPECT_NE(std::string(e.what()).find("wrist_universal"), std::string::npos) << e.what();
+    }
+    ode.refs.joints.pop_back();  // now "hand" is listed but connected to nothing
+    try {
+      ode_backend::attachOdeModel(ode.refs);
+      ADD_FAILURE() << "an unconnected body was accepted";
+    } catch (const ModelError& e) {
+      EXPECT_NE(std::string(e.what()).find("hand"), std::string::npos) << e.what();
+    }
   }
 }
 
