@@ -114,8 +114,8 @@ class OdeModel final : public OdeBodyModel {
         contact_geoms_(kMaxContactsPerPair),
         saved_(ode_.nodes().size()) {
     for (const OdeNode& node : ode_.nodes()) body_ids_.push_back(node.body);
-    if (pull_initial_state) {
-      if (!pullBodyState()) throw InvalidStateError("ODE bodies: the current state is not finite");
+    if (pull_initial_state) {  // read, not posed: attaching leaves the user's bodies alone
+      if (!readBodyState(q_, v_)) throw InvalidStateError("ODE bodies: the current state is not finite");
     } else {
       pushState();
     }

@@ -88,7 +88,7 @@ struct OdeRobotRefs {
 /// object index is the other geom's index among the space's geoms now (−1 for geoms
 /// added later). simulateStep() adds the torques, makes contact joints for the robot's
 /// contacts (its own group, μ = friction) and steps the whole world with dWorldStep.
-/// The initial (q, v) is read from the bodies. Throws ModelError naming the body or joint
+/// The initial (q, v) is read from the bodies (which attaching does not move). Throws ModelError naming the body or joint
 /// on a joint type other than hinge, slider, ball and fixed, a joint to a body that is
 /// not listed, a body reached twice or never, a massless body, or a base link frame
 /// with rotation; std::invalid_argument on null handles or a bad friction.
