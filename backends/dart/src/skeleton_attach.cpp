@@ -13,7 +13,6 @@
 #include <dart/dynamics/ShapeNode.hpp>
 #include <dart/dynamics/WeldJoint.hpp>
 
-#include "dynfilter/core/ball_joint.hpp"
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/core/lie_group.hpp"
 #include "skeleton_model_setup.hpp"
