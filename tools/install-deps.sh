@@ -13,6 +13,7 @@ packages=(
   build-essential cmake ninja-build pkg-config python3 python3-numpy
   libeigen3-dev
   libdart-dev libdart-collision-bullet-dev libbullet-dev libassimp-dev
+  libdart-utils-urdf-dev     # examples/dart_attach: the user's own DartLoader
   libode-dev
   liburdfdom-dev liburdfdom-headers-dev libconsole-bridge-dev libtinyxml2-dev
   liblcm-dev liblcm-bin libglib2.0-dev default-jdk-headless python3-venv

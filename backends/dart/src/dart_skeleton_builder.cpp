@@ -278,16 +278,18 @@ BuiltEnvironment buildEnvironmentSkeleton(const Environment& environment) {
                         .toRotationMatrix();
     X_WG.translation() = g.n_W * (g.offset_m - 0.5 * kGroundSlabThickness_m);
     BodyNode* ground = addStaticBody("ground", X_WG, kGroundObject);
-    addCollisionShape(ground,
-                      std::make_shared<dart::dynamics::BoxShape>(Eigen::Vector3d(
-                          kGroundSlabSize_m, kGroundSlabSize_m, kGroundSlabThickness_m)),
-                      Eigen::Isometry3d::Identity(), g.friction)
-        ->setName(kGroundSlabShapeName);
+    dart::dynamics::ShapeNode* slab = addCollisionShape(
+        ground,
+        std::make_shared<dart::dynamics::BoxShape>(
+            Eigen::Vector3d(kGroundSlabSize_m, kGroundSlabSize_m, kGroundSlabThickness_m)),
+        Eigen::Isometry3d::Identity(), g.friction);
+    slab->setName(kGroundSlabShapeName);
+    built.ground_slab = slab;
     Eigen::Isometry3d X_GP = Eigen::Isometry3d::Identity();
     X_GP.translation().z() = 0.5 * kGroundSlabThickness_m;  // the slab's top face
-    addCollisionShape(ground,
-                      std::make_shared<dart::dynamics::PlaneShape>(Eigen::Vector3d::UnitZ(), 0.0),
-                      X_GP, g.friction);
+    built.ground_plane = addCollisionShape(
+        ground, std::make_shared<dart::dynamics::PlaneShape>(Eigen::Vector3d::UnitZ(), 0.0), X_GP,
+        g.friction);
   }
   for (std::size_t i = 0; i < environment.boxes.size(); ++i) {
     const EnvironmentBox& box = environment.boxes[i];

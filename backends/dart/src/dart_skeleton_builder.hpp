@@ -46,6 +46,10 @@ struct BuiltEnvironment {
   dart::dynamics::SkeletonPtr skeleton;
   /// object_of_body[k] = environment object index (kGroundObject or box index) of body k.
   std::vector<int> object_of_body;
+  /// The ground's two shapes (null without a ground): convex-hull meshes touch only the
+  /// plane, every other shape only the slab.
+  const dart::dynamics::ShapeFrame* ground_slab = nullptr;
+  const dart::dynamics::ShapeFrame* ground_plane = nullptr;
 };
 
 /// A static skeleton: the ground (a slab for primitive shapes and a PlaneShape for

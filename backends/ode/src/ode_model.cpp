@@ -5,14 +5,18 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <ode/ode.h>
 
+#include "dynfilter/core/ball_joint.hpp"
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
+#include "ode_bodies.hpp"
 #include "ode_world.hpp"
 
 namespace dynfilter::ode_backend {
@@ -57,31 +61,123 @@ struct CollisionPass {
   int joints_created = 0;
 };
 
-class OdeModel final : public IDynamicsModel {
+// The bodies the backend builds from a URDF: OdeWorld, with its two spaces (robot,
+// environment) and every geom tagged with its role.
+class UrdfBodies final : public OdeBodies {
  public:
-  OdeModel(const urdf::RobotDescription& robot, const ModelOptions& options)
-      : info_(urdf::makeModelInfo(robot, options.floating_base)),
-        environment_(options.environment),
-        gravity_W_(options.gravity_W),
-        ode_(robot, options.floating_base, options.gravity_W, options.environment,
-             options.enforce_joint_limits_in_simulation),
-        base_v_(options.floating_base ? kFloatingBaseNv : 0),
+  UrdfBodies(const urdf::RobotDescription& robot, const ModelOptions& options)
+      : world_(robot, options.floating_base, options.gravity_W, options.environment,
+               options.enforce_joint_limits_in_simulation) {}
+  dWorldID world() const override { return world_.world(); }
+  dJointGroupID contactGroup() const override { return world_.contactGroup(); }
+  const std::vector<OdeNode>& nodes() const override { return world_.nodes(); }
+  const std::vector<OdeLinkFrame>& links() const override { return world_.links(); }
+  int maxPathCoordinates() const override { return world_.maxDepth(); }
+  void collide(void* data, dNearCallback* callback) const override {
+    dSpaceCollide2(reinterpret_cast<dGeomID>(world_.robotSpace()),
+                   reinterpret_cast<dGeomID>(world_.environmentSpace()), data, callback);
+  }
+  bool role(dGeomID geom, GeomRole& out) const override {
+    const auto* tag = static_cast<const OdeGeomTag*>(dGeomGetData(geom));
+    if (tag == nullptr) return false;
+    out.robot = tag->robot;
+    out.link = tag->link;
+    out.object = tag->object;
+    out.friction = tag->friction;
+    return true;
+  }
+
+ private:
+  OdeWorld world_;
+};
+
+class OdeModel final : public OdeBodyModel {
+ public:
+  OdeModel(std::unique_ptr<OdeBodies> bodies, ModelInfo info, Environment environment,
+           const Eigen::Vector3d& gravity_W, bool pull_initial_state)
+      : info_(std::move(info)),
+        environment_(std::move(environment)),
+        gravity_W_(gravity_W),
+        bodies_(std::move(bodies)),
+        ode_(*bodies_),
+        base_v_(info_.floating_base ? kFloatingBaseNv : 0),
         q_(info_.neutralConfiguration()),
         v_(Eigen::VectorXd::Zero(info_.nv)),
         R_WN_(ode_.nodes().size()),
         p_WN_(ode_.nodes().size()),
         w_WN_(ode_.nodes().size()),
         v_WN_(ode_.nodes().size()),
-        J_compact_(6, kFloatingBaseNv + ode_.maxDepth()),
-        MJ_compact_(6, kFloatingBaseNv + ode_.maxDepth()),
-        columns_(static_cast<std::size_t>(kFloatingBaseNv + ode_.maxDepth())),
+        J_compact_(6, kFloatingBaseNv + ode_.maxPathCoordinates()),
+        MJ_compact_(6, kFloatingBaseNv + ode_.maxPathCoordinates()),
+        columns_(static_cast<std::size_t>(kFloatingBaseNv + ode_.maxPathCoordinates())),
         A_scratch_(info_.nv, info_.nv),
         b_scratch_(info_.nv),
         llt_(info_.nv),
         contact_geoms_(kMaxContactsPerPair),
         saved_(ode_.nodes().size()) {
-    pushState();
+    node_of_coordinate_.assign(static_cast<std::size_t>(info_.nj), -1);
+    for (std::size_t k = 0; k < ode_.nodes().size(); ++k) {
+      const OdeNode& node = ode_.nodes()[k];
+      body_ids_.push_back(node.body);
+      if (node.coordinate >= 0 && !node.follower)
+        node_of_coordinate_[static_cast<std::size_t>(node.coordinate)] = static_cast<int>(k);
+    }
+    if (pull_initial_state) {  // read, not posed: attaching leaves the user's bodies alone
+      if (!readBodyState(q_, v_)) throw InvalidStateError("ODE bodies: the current state is not finite");
+    } else {
+      pushState();
+    }
   }
+
+  bool pullBodyState() override {
+    for (const OdeNode& node : ode_.nodes()) {
+      if (node.body == nullptr) continue;
+      for (const dReal* x : {dBodyGetPosition(node.body), dBodyGetQuaternion(node.body),
+                             dBodyGetLinearVel(node.body), dBodyGetAngularVel(node.body)})
+        for (int i = 0; i < 3; ++i)
+          if (!std::isfinite(x[i])) return false;
+      if (!std::isfinite(dBodyGetQuaternion(node.body)[3])) return false;
+    }
+    simulation_state_saved_ = false;
+    pullState();
+    pushState();
+    return true;
+  }
+
+  bool readBodyState(Eigen::Ref<Eigen::VectorXd> q, Eigen::Ref<Eigen::VectorXd> v) const override {
+    if (q.size() != info_.nq || v.size() != info_.nv) return false;
+    q = q_;  // hinge angles continue from the model's
+    readBodies(q, v);
+    return q.allFinite() && v.allFinite();
+  }
+
+  void addJointTorques(const Eigen::Ref<const Eigen::VectorXd>& tau_J) const override {
+    requireTorques(tau_J);
+    for (const OdeNode& node : ode_.nodes()) {
+      // A mimic follower is passive: its motor holds the coupling (driveMimicFollowers).
+      if (node.joint == nullptr || node.fixed || node.follower || node.coordinate < 0) continue;
+      if (node.ball) {
+        // t_C = J_r⁻ᵀ τ in the child's frame N, on the child; its opposite on the parent.
+        const Eigen::Vector3d theta = q_.segment<3>(info_.configurationIndex(node.coordinate));
+        const Eigen::Vector3d tau = tau_J.segment<3>(node.coordinate);
+        const Eigen::Vector3d t_W = rotationFromOde(dBodyGetRotation(node.body)) *
+                                    rightJacobianSO3(theta).transpose().partialPivLu().solve(tau);
+        dBodyAddTorque(node.body, t_W.x(), t_W.y(), t_W.z());
+        const dBodyID parent = ode_.nodes()[static_cast<std::size_t>(node.parent)].body;
+        if (parent != nullptr) dBodyAddTorque(parent, -t_W.x(), -t_W.y(), -t_W.z());
+        continue;
+      }
+      // The child moves along axis_sign × ODE's axis; ODE's torque acts on body 1 along
+      // its axis: the same for either order (axis_sign flips both).
+      const double tau = tau_J[node.coordinate];
+      if (node.prismatic)
+        dJointAddSliderForce(node.joint, tau);
+      else
+        dJointAddHingeTorque(node.joint, tau);
+    }
+  }
+
+  const std::vector<dBodyID>& bodies() const override { return body_ids_; }
 
   const ModelInfo& info() const override { return info_; }
   std::string_view backendName() const override { return "ode"; }
@@ -208,28 +304,8 @@ class OdeModel final : public IDynamicsModel {
     // Continue from ODE's own state after the previous step (its bodies satisfy the joint
     // constraints only up to the stepper's drift); after setState the bodies are (q, v).
     if (simulation_state_saved_) restoreSimulationState();
-    for (const OdeNode& node : ode_.nodes()) {
-      if (node.joint == nullptr) continue;
-      if (node.follower) {
-        // Drive the follower to factor · q_leader + offset: velocity target with a
-        // Baumgarte-style position correction, unbounded motor force.
-        const OdeNode& leader = ode_.nodes()[static_cast<std::size_t>(
-            ode_.nodeOfCoordinate()[static_cast<std::size_t>(node.coordinate)])];
-        const double q_l = jointPosition(leader), v_l = jointRate(leader);
-        const double error = node.factor * q_l + node.offset - jointPosition(node);
-        const double target = node.factor * v_l + kMimicErrorReduction * error / dt_s;
-        if (node.prismatic)
-          dJointSetLMotorParam(node.mimic_motor, dParamVel, target);
-        else
-          dJointSetAMotorParam(node.mimic_motor, dParamVel, target);
-        continue;
-      }
-      const double tau = tau_J[node.coordinate];
-      if (node.prismatic)
-        dJointAddSliderForce(node.joint, tau);
-      else
-        dJointAddHingeTorque(node.joint, tau);
-    }
+    driveMimicFollowers(dt_s);
+    addJointTorques(tau_J);
     CollisionPass pass;
     pass.model = this;
     pass.simulate = true;
@@ -254,14 +330,13 @@ class OdeModel final : public IDynamicsModel {
 
   // Called by the collision callback for each potentially touching pair.
   void handlePair(dGeomID g1, dGeomID g2, CollisionPass& pass) const {
-    const auto* t1 = static_cast<const OdeGeomTag*>(dGeomGetData(g1));
-    const auto* t2 = static_cast<const OdeGeomTag*>(dGeomGetData(g2));
-    if (t1 == nullptr || t2 == nullptr || t1->robot == t2->robot) return;
-    const bool robot_first = t1->robot;
+    GeomRole r1, r2;
+    if (!ode_.role(g1, r1) || !ode_.role(g2, r2) || r1.robot == r2.robot) return;
+    const bool robot_first = r1.robot;
     const dGeomID robot_geom = robot_first ? g1 : g2;
     const dGeomID env_geom = robot_first ? g2 : g1;
-    const OdeGeomTag& robot = robot_first ? *t1 : *t2;
-    const OdeGeomTag& env = robot_first ? *t2 : *t1;
+    const GeomRole& robot = robot_first ? r1 : r2;
+    const GeomRole& env = robot_first ? r2 : r1;
     // dCollide(robot, environment): ODE's normal then points out of the environment into
     // the robot shape, i.e. it pushes the body out, and it is the right normal for a
     // contact joint attached (robot body, world).
@@ -278,7 +353,7 @@ class OdeModel final : public IDynamicsModel {
         contact.geom = contact_geoms_[static_cast<std::size_t>(i)];
         contact.fdir1[0] = contact.fdir1[1] = contact.fdir1[2] = 0.0;
         dJointID joint = dJointCreateContact(ode_.world(), ode_.contactGroup(), &contact);
-        dJointAttach(joint, body, nullptr);
+        dJointAttach(joint, body, dGeomGetBody(env_geom));  // null: static geometry
         ++pass.joints_created;
       }
       return;
@@ -309,8 +384,7 @@ class OdeModel final : public IDynamicsModel {
 
   void collide(CollisionPass& pass) const {
     ensureOdeInitialised();  // ODE's per-thread collision data for this thread
-    dSpaceCollide2(reinterpret_cast<dGeomID>(ode_.robotSpace()),
-                   reinterpret_cast<dGeomID>(ode_.environmentSpace()), &pass, &nearCallback);
+    ode_.collide(&pass, &nearCallback);
   }
 
   /// Depth of the world point @p x inside the environment geom (positive inside).
@@ -322,6 +396,24 @@ class OdeModel final : public IDynamicsModel {
         return dGeomBoxPointDepth(env_geom, x[0], x[1], x[2]);
       default:
         return 0.0;
+    }
+  }
+
+  /// Sets each mimic follower's motor velocity for the coming dWorldStep: it drives the
+  /// follower to factor · q_leader + offset (velocity target with a Baumgarte-style
+  /// position correction, unbounded motor force).
+  void driveMimicFollowers(double dt_s) const {
+    for (const OdeNode& node : ode_.nodes()) {
+      if (!node.follower) continue;
+      const OdeNode& leader = ode_.nodes()[static_cast<std::size_t>(
+          node_of_coordinate_[static_cast<std::size_t>(node.coordinate)])];
+      const double q_l = jointPosition(leader), v_l = jointRate(leader);
+      const double error = node.factor * q_l + node.offset - jointPosition(node);
+      const double target = node.factor * v_l + kMimicErrorReduction * error / dt_s;
+      if (node.prismatic)
+        dJointSetLMotorParam(node.mimic_motor, dParamVel, target);
+      else
+        dJointSetAMotorParam(node.mimic_motor, dParamVel, target);
     }
   }
 
@@ -384,16 +476,32 @@ class OdeModel final : public IDynamicsModel {
     for (int k = node; nodes[static_cast<std::size_t>(k)].parent >= 0;
          k = nodes[static_cast<std::size_t>(k)].parent) {
       const OdeNode& n = nodes[static_cast<std::size_t>(k)];
+      if (n.fixed) continue;
+      if (n.ball) {
+        // ω_rel = R_WN J_r(θ) θ̇ about the anchor o.
+        dVector3 anchor;
+        dJointGetBallAnchor(n.joint, anchor);
+        const Eigen::Matrix3d R_WN = rotationFromOde(dBodyGetRotation(n.body));
+        const Eigen::Matrix3d columns =
+            R_WN * rightJacobianSO3(q_.segment<3>(info_.configurationIndex(n.coordinate)));
+        const Eigen::Vector3d r = p - toEigen(anchor);
+        for (int i = 0; i < kBallJointDofs; ++i) {
+          columns_[static_cast<std::size_t>(d)] = base_v_ + n.coordinate + i;
+          J_compact_.col(d) << columns.col(i).cross(r), columns.col(i);
+          ++d;
+        }
+        continue;
+      }
       columns_[static_cast<std::size_t>(d)] = base_v_ + n.coordinate;
       dVector3 axis;
       if (n.prismatic) {
         dJointGetSliderAxis(n.joint, axis);
-        J_compact_.col(d) << n.factor * toEigen(axis), Eigen::Vector3d::Zero();
+        J_compact_.col(d) << n.factor * n.axis_sign * toEigen(axis), Eigen::Vector3d::Zero();
       } else {
         dVector3 anchor;
         dJointGetHingeAxis(n.joint, axis);
         dJointGetHingeAnchor(n.joint, anchor);
-        const Eigen::Vector3d a = n.factor * toEigen(axis);
+        const Eigen::Vector3d a = n.factor * n.axis_sign * toEigen(axis);
         J_compact_.col(d) << a.cross(p - toEigen(anchor)), a;
       }
       ++d;
@@ -429,17 +537,33 @@ class OdeModel final : public IDynamicsModel {
     for (int k = node; nodes[static_cast<std::size_t>(k)].parent >= 0;
          k = nodes[static_cast<std::size_t>(k)].parent) {
       const OdeNode& n = nodes[static_cast<std::size_t>(k)];
-      const double qd = n.factor * v_[base_v_ + n.coordinate];
+      if (n.fixed) continue;
       const BodyState parent = state(n.parent);
+      if (n.ball) {
+        // d/dt(R_WN J_r θ̇) at θ̈ = 0 = ω_P × ω_rel + R_WN J̇_r θ̇, about the anchor o.
+        dVector3 anchor;
+        dJointGetBallAnchor(n.joint, anchor);
+        const Eigen::Vector3d o = toEigen(anchor);
+        const Eigen::Vector3d theta = q_.segment<3>(info_.configurationIndex(n.coordinate));
+        const Eigen::Vector3d theta_dot = v_.segment<3>(info_.velocityIndex(n.coordinate));
+        const Eigen::Matrix3d R_WN = rotationFromOde(dBodyGetRotation(n.body));
+        const Eigen::Vector3d w_rel = R_WN * (rightJacobianSO3(theta) * theta_dot);
+        const Eigen::Vector3d w_rel_dot =
+            parent.w.cross(w_rel) + R_WN * rightJacobianSO3DotTimes(theta, theta_dot);
+        alpha += w_rel_dot;
+        acc += w_rel_dot.cross(p - o) + w_rel.cross(p_dot - parent.pointVelocity(o));
+        continue;
+      }
+      const double qd = n.factor * v_[base_v_ + n.coordinate];
       dVector3 axis;
       if (n.prismatic) {
         dJointGetSliderAxis(n.joint, axis);
-        acc += parent.w.cross(toEigen(axis)) * qd;
+        acc += parent.w.cross(n.axis_sign * toEigen(axis)) * qd;
       } else {
         dVector3 anchor;
         dJointGetHingeAxis(n.joint, axis);
         dJointGetHingeAnchor(n.joint, anchor);
-        const Eigen::Vector3d a = toEigen(axis);
+        const Eigen::Vector3d a = n.axis_sign * toEigen(axis);
         const Eigen::Vector3d o = toEigen(anchor);
         const Eigen::Vector3d a_dot_qd = parent.w.cross(a) * qd;
         alpha += a_dot_qd;
@@ -473,8 +597,9 @@ class OdeModel final : public IDynamicsModel {
           w_WN_[k] = R_WN_[k] * v_.segment<3>(3);
           v_WN_[k] = R_WN_[k] * v_.head<3>();
         } else {
-          R_WN_[k].setIdentity();
-          p_WN_[k].setZero();
+          // Welded to the world at X_PJ (identity for a URDF's fixed root: the world).
+          R_WN_[k] = n.X_PJ.linear();
+          p_WN_[k] = n.X_PJ.translation();
           w_WN_[k].setZero();
           v_WN_[k].setZero();
         }
@@ -483,9 +608,22 @@ class OdeModel final : public IDynamicsModel {
         const Eigen::Matrix3d R_WJ = R_WN_[P] * n.X_PJ.linear();
         const Eigen::Vector3d p_WJ = p_WN_[P] + R_WN_[P] * n.X_PJ.translation();
         const Eigen::Vector3d a = R_WJ * n.axis_J;
-        const double qj = n.factor * q_[info_.configurationIndex(n.coordinate)] + n.offset;
-        const double qd = n.factor * v_[info_.velocityIndex(n.coordinate)];
-        if (n.prismatic) {
+        const int iq = n.coordinate < 0 ? 0 : info_.configurationIndex(n.coordinate);
+        const int iv = n.coordinate < 0 ? 0 : info_.velocityIndex(n.coordinate);
+        const double qj = n.coordinate < 0 ? 0.0 : n.factor * q_[iq] + n.offset;
+        const double qd = n.coordinate < 0 ? 0.0 : n.factor * v_[iv];
+        if (n.fixed) {
+          R_WN_[k] = R_WJ;
+          p_WN_[k] = p_WJ;
+          w_WN_[k] = w_WN_[P];
+          v_WN_[k] = v_WN_[P] + w_WN_[P].cross(p_WN_[k] - p_WN_[P]);
+        } else if (n.ball) {
+          const Eigen::Vector3d theta = q_.segment<3>(iq);
+          R_WN_[k] = R_WJ * expSO3(theta);
+          p_WN_[k] = p_WJ;
+          w_WN_[k] = w_WN_[P] + R_WN_[k] * (rightJacobianSO3(theta) * v_.segment<3>(iv));
+          v_WN_[k] = v_WN_[P] + w_WN_[P].cross(p_WN_[k] - p_WN_[P]);
+        } else if (n.prismatic) {
           R_WN_[k] = R_WJ;
           p_WN_[k] = p_WJ + a * qj;
           w_WN_[k] = w_WN_[P];
@@ -502,7 +640,7 @@ class OdeModel final : public IDynamicsModel {
       const Eigen::Vector3d c = p_WN_[k] + r;
       const Eigen::Vector3d v_c = v_WN_[k] + w_WN_[k].cross(r);
       dBodySetPosition(n.body, c.x(), c.y(), c.z());
-      if (n.parent < 0) {
+      if (n.parent < 0 && info_.floating_base) {
         // The base by its quaternion, so that ODE keeps our sign and integrates it on
         // continuously (from a matrix ODE would choose the sign itself).
         const dQuaternion quat = {q_[3], q_[4], q_[5], q_[6]};
@@ -520,7 +658,10 @@ class OdeModel final : public IDynamicsModel {
   /// ODE bodies → (q, v) after a step: the base from the root body (its CoM offset taken
   /// off), each joint coordinate from its child's pose and velocity relative to the
   /// parent's joint frame.
-  void pullState() {
+  void pullState() { readBodies(q_, v_); }
+
+  /// Reads (q, v) into @p q and @p v (hinge angles continued from @p q's values).
+  void readBodies(Eigen::Ref<Eigen::VectorXd> q, Eigen::Ref<Eigen::VectorXd> v) const {
     const auto& nodes = ode_.nodes();
     for (std::size_t k = 0; k < nodes.size(); ++k) {
       const OdeNode& n = nodes[k];
@@ -535,23 +676,30 @@ class OdeModel final : public IDynamicsModel {
         const dReal* quat = dBodyGetQuaternion(n.body);  // (w, x, y, z), unit
         Eigen::Vector4d wxyz(quat[0], quat[1], quat[2], quat[3]);
         wxyz.normalize();
-        q_.head<3>() = p_WN_[k];
-        q_.segment<4>(3) = wxyz;
+        q.head<3>() = p_WN_[k];
+        q.segment<4>(3) = wxyz;
         // R from the stored quaternion, so that q and the base velocity agree exactly.
         const Eigen::Matrix3d R =
             Eigen::Quaterniond(wxyz[0], wxyz[1], wxyz[2], wxyz[3]).toRotationMatrix();
-        v_.head<3>() = R.transpose() * v_WN_[k];
-        v_.segment<3>(3) = R.transpose() * w_WN_[k];
+        v.head<3>() = R.transpose() * v_WN_[k];
+        v.segment<3>(3) = R.transpose() * w_WN_[k];
         continue;
       }
-      if (n.follower) continue;  // its position follows from the leader's
+      if (n.fixed || n.follower) continue;  // a follower's position follows from its leader's
       const auto P = static_cast<std::size_t>(n.parent);
       const BodyState parent = state(n.parent);
       const Eigen::Matrix3d R_WJ = R_WN_[P] * n.X_PJ.linear();
       const Eigen::Vector3d p_WJ = p_WN_[P] + R_WN_[P] * n.X_PJ.translation();
+      if (n.ball) {
+        const Eigen::Vector3d theta = logSO3(R_WJ.transpose() * R_WN_[k]);
+        q.segment<3>(info_.configurationIndex(n.coordinate)) = theta;
+        v.segment<3>(info_.velocityIndex(n.coordinate)) = rightJacobianSO3(theta).partialPivLu().solve(
+            Eigen::Vector3d(R_WN_[k].transpose() * (w_WN_[k] - parent.w)));
+        continue;
+      }
       const Eigen::Vector3d a = R_WJ * n.axis_J;
-      double& qj = q_[info_.configurationIndex(n.coordinate)];
-      double& qd = v_[info_.velocityIndex(n.coordinate)];
+      double& qj = q[info_.configurationIndex(n.coordinate)];
+      double& qd = v[info_.velocityIndex(n.coordinate)];
       if (n.prismatic) {
         qj = n.axis_J.dot(R_WJ.transpose() * (p_WN_[k] - p_WJ));
         qd = a.dot(v_WN_[k] - parent.pointVelocity(p_WN_[k]));
@@ -599,13 +747,16 @@ class OdeModel final : public IDynamicsModel {
   ModelInfo info_;
   Environment environment_;
   Eigen::Vector3d gravity_W_;
-  OdeWorld ode_;
+  std::unique_ptr<OdeBodies> bodies_;
+  const OdeBodies& ode_;
+  std::vector<dBodyID> body_ids_;
+  std::vector<int> node_of_coordinate_;  // the node joint coordinate c moves (its leader's)
   int base_v_;
   Eigen::VectorXd q_, v_;
   Eigen::VectorXd q_before_step_, v_before_step_;  // kept when a step diverges
   // Forward / inverse kinematics scratch per node: frame N in world and its velocities.
-  std::vector<Eigen::Matrix3d> R_WN_;
-  std::vector<Eigen::Vector3d> p_WN_, w_WN_, v_WN_;
+  mutable std::vector<Eigen::Matrix3d> R_WN_;
+  mutable std::vector<Eigen::Vector3d> p_WN_, w_WN_, v_WN_;
   // Query scratch (the queries are const and must not allocate).
   mutable Matrix6Xd J_compact_, MJ_compact_;
   mutable std::vector<int> columns_;
@@ -626,7 +777,17 @@ std::unique_ptr<IDynamicsModel> makeOdeModel(const urdf::RobotDescription& robot
   options.environment.validate();
   if (!options.gravity_W.allFinite()) throw std::invalid_argument("gravity is not finite");
   ensureOdeInitialised();
-  return std::make_unique<OdeModel>(robot, options);
+  return makeOdeBodyModel(std::make_unique<UrdfBodies>(robot, options),
+                          urdf::makeModelInfo(robot, options.floating_base), options.environment,
+                          options.gravity_W, false);
+}
+
+std::unique_ptr<OdeBodyModel> makeOdeBodyModel(std::unique_ptr<OdeBodies> bodies, ModelInfo info,
+                                               Environment environment,
+                                               const Eigen::Vector3d& gravity_W,
+                                               bool pull_initial_state) {
+  return std::make_unique<OdeModel>(std::move(bodies), std::move(info), std::move(environment),
+                                    gravity_W, pull_initial_state);
 }
 
 std::unique_ptr<IDynamicsModel> loadOdeModel(const std::string& urdf_path,

@@ -48,6 +48,9 @@ struct OdeNode {
   bool follower = false;      ///< a mimic follower (passive: no torque of its own)
   bool prismatic = false;     ///< slider; otherwise hinge (revolute, continuous)
   double lower = 0.0, upper = 0.0;  ///< the joint's own position limits
+  bool ball = false;          ///< ball joint: 3 coordinates from `coordinate` on (ball_joint.hpp)
+  bool fixed = false;         ///< fixed joint: welded to the parent, no coordinate
+  double axis_sign = 1.0;     ///< −1 when the child is the joint's body 2 (user's joints)
   dJointID joint = nullptr;   ///< hinge or slider, body 1 = this node, body 2 = parent
   dJointID mimic_motor = nullptr;  ///< follower: angular or linear motor holding the coupling in dWorldStep
   Eigen::Isometry3d X_PJ = Eigen::Isometry3d::Identity();  ///< joint frame in parent's N

@@ -9,6 +9,8 @@
 /// - fixed base: q = joints, v = joint rates, nq = nv = nj.
 /// - joints are the moving joints of the URDF (revolute, continuous, prismatic) in the
 ///   order they appear in the file; fixed joints carry no coordinate.
+///   A model attached to a user's own simulation takes their joints in their order; a ball
+///   joint there carries three coordinates (ball_joint.hpp: q = θ, v = θ̇).
 /// - bodies are all URDF links in file order; a body index addresses a link everywhere.
 /// SI units throughout (m, rad, kg, s, N, N m).
 

@@ -1,25 +1,20 @@
 #pragma once
 /// @file
-/// The DART backend: IDynamicsModel on a dart::dynamics::Skeleton built from a URDF
-/// description, with contact candidates and simulation through DART's Bullet collision.
+/// The DART backend on a URDF: builds a dart::dynamics::Skeleton from the description, a
+/// static skeleton for the environment and a world with DART's Bullet collision, and
+/// returns the SkeletonModel over them (skeleton_model.hpp): the same model a user gets by
+/// attaching to their own skeleton. Bodies are the URDF links (fixed-joint links are
+/// frames on their carrier body), joints the URDF's moving joints in file order.
 
 #include <memory>
 #include <string>
 
 #include "dynfilter/core/dynamics_model.hpp"
 #include "dynfilter/core/model_options.hpp"
+#include "dynfilter/dart/skeleton_model.hpp"
 #include "dynfilter/urdf/robot_description.hpp"
 
 namespace dynfilter::dart_backend {
-
-/// How the DART backend computes the mass matrix A.
-enum class DartMassMatrix {
-  /// Σ_k J_kᵀ M_k J_k over bodies from DART's cached body Jacobians and spatial inertias:
-  /// no heap allocation, about 10× faster on a humanoid. The default.
-  kBodySum,
-  /// DART's own Skeleton::getMassMatrix (allocates; for cross-checks of DART itself).
-  kSkeleton,
-};
 
 /// Builds a DART model of @p robot. Validates the description first (validateForDynamics)
 /// so that nothing malformed reaches DART, whose assertions abort the process.
