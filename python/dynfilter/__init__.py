@@ -72,12 +72,15 @@ CONTACT_KINDS = {3: "point", 5: "edge", 6: "face"}
 
 
 def default_model_path() -> str:
-    """The human figure shipped with the sources (models/human_figure.urdf), or
+    """The human figure (models/human_figure.urdf, installed with the package by pip), or
     $DYNFILTER_MODEL."""
     env = os.environ.get("DYNFILTER_MODEL")
     if env:
         return env
     here = Path(__file__).resolve()
+    installed = here.parent / "models" / "human_figure.urdf"
+    if installed.exists():
+        return str(installed)
     for parent in here.parents:
         candidate = parent / "models" / "human_figure.urdf"
         if candidate.exists():
@@ -225,46 +228,18 @@ def filter_motion(model: Model, reference_motion: Any,
                                        progress)
 
 
-def crosscheck_filtered(model: Model, filtered: dict) -> dict:
-    """Eq. 12 of a filter_motion result re-evaluated by ``model`` (typically the other
-    backend): per row r = A v̇ + b − Σ J_cᵀ w_c − [0; τ]. Returns ``base_residual_n``
-    (rows,) (max |r| over the six base rows), ``residual`` (rows,) (max |r| over all rows)
-    and their maxima relative to body weight, as ``dynfilter-crosscheck --filtered``."""
+def crosscheck_filtered(model: Model, filtered: Union[PathLike, dict]) -> dict:
+    """Eq. 12 of a filtered motion re-evaluated by ``model`` (typically the other backend),
+    as ``dynfilter-crosscheck --filtered`` does (the same C++ function): per row
+    r = A v̇ + b − Σ J_cᵀ w_c − [0; τ]. ``filtered``: a dynfilter-offline CSV path or a
+    :func:`filter_motion` result. Returns ``base_residual_n`` and ``residual`` (rows,) (max
+    |r| over the six base rows, over all rows), their maxima, ``worst_base_frame`` and the
+    maxima relative to body weight (``max_base_residual_rel_bw``, ``max_residual_rel_bw``;
+    the tool's default tolerance on every row is 1e-8)."""
+    if isinstance(filtered, (str, os.PathLike)):
+        return _dynfilter.crosscheck_file(model, os.fspath(filtered))
     import numpy as np
-    rows = len(filtered["time"])
-    nb = 6 if model.floating_base else 0
-    base = np.zeros(rows)
-    full = np.zeros(rows)
-    contacts = filtered["contacts"]
-    body_names = filtered["body_names"]
-    for k in range(rows):
-        q, v, vdot = filtered["q"][k], filtered["v"][k], filtered["vdot"][k]
-        r = model.mass_matrix(q) @ vdot + model.bias(q, v)
-        r[nb:] -= filtered["tau"][k]
-        positions = model.body_positions(q)
-        for c in np.nonzero(contacts["row"] == k)[0]:
-            body = int(contacts["body"][c])
-            # the Jacobian of the contact point: its offset from the body origin, in world,
-            # rotated into the body frame by the model (point_jacobian takes p_BP).
-            p_WC = contacts["p_WC"][c]
-            J = _point_jacobian_world(model, q, body_names[body], p_WC, positions[body])
-            r -= J.T @ contacts["wrench_W"][c]
-        base[k] = np.max(np.abs(r[:nb])) if nb else 0.0
-        full[k] = np.max(np.abs(r))
-    weight = model.total_mass * 9.81
-    return {"base_residual_n": base, "residual": full,
-            "max_base_residual_rel_bw": float(base.max() / weight) if rows else 0.0,
-            "max_residual_rel_bw": float(full.max() / weight) if rows else 0.0}
-
-
-def _point_jacobian_world(model: Model, q, body: str, p_WC, p_WB):
-    import numpy as np
-    # Linear rows of the body-origin Jacobian give its rotation: J(p_BP) = J(0) with the
-    # linear rows shifted by ω × (R p_BP). Build R p_BP = p_WC − p_WB directly.
-    J0 = model.point_jacobian(q, body)
-    d = np.asarray(p_WC) - np.asarray(p_WB)
-    J = J0.copy()
-    # v_P = v_B + ω × d  ⇒  J_lin(P) = J_lin(B) − [d]× J_ang
-    skew = np.array([[0.0, -d[2], d[1]], [d[2], 0.0, -d[0]], [-d[1], d[0], 0.0]])
-    J[:3] = J0[:3] - skew @ J0[3:]
-    return J
+    c = filtered["contacts"]
+    return _dynfilter.crosscheck_arrays(
+        model, filtered["q"], filtered["v"], filtered["vdot"], filtered["tau"],
+        np.asarray(c["row"], np.int64), np.asarray(c["body"], np.int32), c["p_WC"], c["wrench_W"])

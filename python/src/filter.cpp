@@ -11,6 +11,8 @@
 #include "bindings.hpp"
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/io/filtered_motion.hpp"
+#include "dynfilter/io/filtered_motion_check.hpp"
+#include "dynfilter/io/filtered_motion_reader.hpp"
 #include "dynfilter/io/offline_run.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
 
@@ -280,9 +282,75 @@ py::dict filterMotion(const Model& model, const Reference& reference,
   return result;
 }
 
+py::dict residualsDict(const io::FilteredMotionResiduals& r) {
+  py::dict d;
+  d["base_residual_n"] = r.base_n;
+  d["residual"] = r.all;
+  d["max_base_residual_n"] = r.worst_base_n;
+  d["worst_base_frame"] = r.worst_base_frame;
+  d["max_residual"] = r.worst_all;
+  d["max_base_residual_rel_bw"] = r.worst_base_n / r.body_weight_n;
+  d["max_residual_rel_bw"] = r.worst_all / r.body_weight_n;
+  return d;
+}
+
+using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// filter_motion's arrays as the frames io::evaluateFilteredMotion checks.
+std::vector<io::FilteredFrame> framesOf(const RowMatrix& q, const RowMatrix& v,
+                                        const RowMatrix& vdot, const RowMatrix& tau,
+                                        const Eigen::Matrix<std::int64_t, Eigen::Dynamic, 1>& contact_row,
+                                        const Eigen::VectorXi& contact_body,
+                                        const RowMatrix& p_WC, const RowMatrix& wrench_W) {
+  const Eigen::Index n = q.rows();
+  if (v.rows() != n || vdot.rows() != n || tau.rows() != n)
+    throw std::invalid_argument("q, v, vdot and tau must have the same number of rows");
+  const Eigen::Index k = contact_row.size();
+  if (contact_body.size() != k || p_WC.rows() != k || wrench_W.rows() != k || p_WC.cols() != 3 ||
+      wrench_W.cols() != 6)
+    throw std::invalid_argument("contacts: row, body (k,), p_WC (k, 3) and wrench_W (k, 6) must agree");
+  std::vector<io::FilteredFrame> frames(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    auto& f = frames[static_cast<std::size_t>(i)];
+    f.state.q = q.row(i).transpose();
+    f.state.v = v.row(i).transpose();
+    f.state.vdot = vdot.row(i).transpose();
+    f.tau_J = tau.row(i).transpose();
+  }
+  for (Eigen::Index c = 0; c < k; ++c) {
+    if (contact_row[c] < 0 || contact_row[c] >= n)
+      throw std::invalid_argument("contacts: row " + std::to_string(contact_row[c]) + " out of range");
+    io::ContactWrench w;
+    w.body = contact_body[c];
+    w.p_WC = p_WC.row(c).transpose();
+    w.wrench_W = wrench_W.row(c).transpose();
+    frames[static_cast<std::size_t>(contact_row[c])].contacts.push_back(w);
+  }
+  return frames;
+}
+
 }  // namespace
 
 void bindFilter(py::module_& m) {
+  m.def("crosscheck_file",
+        [](Model& model, const std::string& path) {
+          return residualsDict(io::evaluateFilteredMotion(
+              *model.engine, io::readFilteredMotion(path, model.engine->info())));
+        },
+        py::arg("model"), py::arg("filtered_csv"),
+        "Eq. 12 of a dynfilter-offline output re-evaluated by model (dynfilter-crosscheck "
+        "--filtered).");
+  m.def("crosscheck_arrays",
+        [](Model& model, const RowMatrix& q, const RowMatrix& v, const RowMatrix& vdot,
+           const RowMatrix& tau, const Eigen::Matrix<std::int64_t, Eigen::Dynamic, 1>& contact_row,
+           const Eigen::VectorXi& contact_body, const RowMatrix& p_WC, const RowMatrix& wrench_W) {
+          return residualsDict(io::evaluateFilteredMotion(
+              *model.engine, framesOf(q, v, vdot, tau, contact_row, contact_body, p_WC, wrench_W)));
+        },
+        py::arg("model"), py::arg("q"), py::arg("v"), py::arg("vdot"), py::arg("tau"),
+        py::arg("contact_row"), py::arg("contact_body"), py::arg("p_WC"), py::arg("wrench_W"),
+        "Same for filter_motion's arrays.");
+
   py::class_<Filter>(m, "Filter",
                      "The dynamics filter on its own instance of a model, in the "
                      "configuration's environment, ticking every config.dt_s.")

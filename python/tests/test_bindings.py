@@ -136,11 +136,19 @@ def test_model_dynamics_agree_between_backends(model):
     assert np.max(np.abs(r[:6])) < 1e-8 and np.max(np.abs(r[6:] - tau)) < 1e-8
 
 
-def test_crosscheck_filtered_by_the_other_backend(model):
-    out = dynfilter.filter_motion(model, str(SQUAT), mode="paper", max_seconds=1.0)
+def test_crosscheck_filtered_equals_the_crosscheck_tool(tmp_path, model):
+    offline, crosscheck = tool("offline"), tool("crosscheck")
+    csv_path = tmp_path / "squat.csv"
+    out = dynfilter.filter_motion(model, str(SQUAT), mode="paper", output_csv=csv_path)
     ode = dynfilter.Model(str(MODEL), "ode")
-    check = dynfilter.crosscheck_filtered(ode, out)
-    assert check["max_residual_rel_bw"] < 1e-8
+    from_file = dynfilter.crosscheck_filtered(ode, csv_path)
+    from_arrays = dynfilter.crosscheck_filtered(ode, out)
+    assert np.array_equal(from_file["residual"], from_arrays["residual"])
+    assert from_file["max_residual_rel_bw"] < 1e-8
+    r = run_tool([crosscheck, "--filtered", csv_path, "--filtered-backend", "dart"])
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert f"max {from_file['max_base_residual_n']:.3g} N" in r.stdout
+    assert f"all rows:             max {from_file['max_residual']:.3g}" in r.stdout
     # A wrong torque is seen.
     out["tau"][10, 3] += 1.0
     assert dynfilter.crosscheck_filtered(ode, out)["residual"][10] > 0.9
