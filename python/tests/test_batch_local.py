@@ -1,6 +1,5 @@
 """dynfilter.batch with two local worker processes on the shipped clips."""
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -1,5 +1,4 @@
 """The bindings against the C++ tools on the same input, and their errors."""
-import shutil
 import sys
 from pathlib import Path
 
@@ -7,7 +6,7 @@ import numpy as np
 import pytest
 
 import dynfilter
-from conftest import CMU, MODEL, ROOT, SQUAT, read_csv, run_tool, tool
+from conftest import CMU, MODEL, SQUAT, read_csv, run_tool, tool
 
 TIMING = {"solve_time_s", "tick_time_s"}
 
@@ -39,7 +38,7 @@ def assert_same_table(tool_csv, python_csv_or_none, result, model):
         assert got.shape == expected.shape, key
         assert np.max(np.abs(got - expected)) <= 1e-12, key
         assert np.array_equal(got, expected), key  # bit-identical: the same loop
-    ch, crows = read_csv(Path(tool_csv).with_suffix("").as_posix() + ".contacts.csv")
+    ch, crows = read_csv(str(tool_csv)[:-4] + ".contacts.csv")
     c = result["contacts"]
     assert len(crows) == len(c["time"]) > 0
     cc = {h: i for i, h in enumerate(ch)}
@@ -54,8 +53,7 @@ def assert_same_table(tool_csv, python_csv_or_none, result, model):
         assert h2 == header
         keep = [i for i, h in enumerate(header) if h not in TIMING]
         assert [[r[i] for i in keep] for r in rows2] == [[r[i] for i in keep] for r in rows]
-        assert (Path(python_csv_or_none).with_suffix("").as_posix() + ".contacts.csv") and \
-            Path(str(python_csv_or_none)[:-4] + ".contacts.csv").read_text() == \
+        assert Path(str(python_csv_or_none)[:-4] + ".contacts.csv").read_text() == \
             Path(str(tool_csv)[:-4] + ".contacts.csv").read_text()
 
 
@@ -82,7 +80,7 @@ def test_retarget_and_filter_equal_bvh2ref_then_offline(tmp_path, model):
     ref_py = tmp_path / "ref_py.csv"
     result.reference.write_csv(str(ref_py), model)
     assert ref_py.read_text() == ref_tool.read_text()
-    assert "joint" in result.limit_report or result.limit_report
+    assert result.limit_report and len(result.limits) == model.nj
     out_tool = tmp_path / "tool.csv"
     r = run_tool([offline, ref_tool, "-o", out_tool, "--mode", "qp", "-q"])
     assert r.returncode == 0, r.stderr
@@ -137,7 +135,7 @@ def test_model_dynamics_agree_between_backends(model):
 
 
 def test_crosscheck_filtered_equals_the_crosscheck_tool(tmp_path, model):
-    offline, crosscheck = tool("offline"), tool("crosscheck")
+    crosscheck = tool("crosscheck")
     csv_path = tmp_path / "squat.csv"
     out = dynfilter.filter_motion(model, str(SQUAT), mode="paper", output_csv=csv_path)
     ode = dynfilter.Model(str(MODEL), "ode")
