@@ -371,7 +371,7 @@ def run_batch(clips: list[Clip], settings: Settings, workers: int = 1,
             # Workers forked from a server process that has imported the package: a fresh
             # process per worker (no threads of this one) that starts in milliseconds.
             context = multiprocessing.get_context("forkserver")
-            context.set_forkserver_preload(["numpy", "dynfilter", "dynfilter.batch"])
+            context.set_forkserver_preload(["numpy", "dynfilter"])
             with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
                 futures = {pool.submit(run_clip, c, settings): i for i, c in enumerate(clips)}
                 for fut in as_completed(futures):
@@ -401,7 +401,8 @@ def main(argv: Optional[Iterable[str]] = None) -> int:
     p.add_argument("--mapping", help="mapping for BVH clips that have none of their own")
     p.add_argument("--tick-hz", type=float, default=500.0)
     p.add_argument("--max-seconds", type=float, help="filter only the first seconds of each clip")
-    p.add_argument("--workers", type=int, default=1, help="local worker processes")
+    p.add_argument("--workers", type=int, default=1,
+                   help="local worker processes (with --ray-address local: the CPUs of the cluster started here)")
     p.add_argument("--ray-address", help="Ray cluster: auto, local (start one here) or host:port")
     p.add_argument("--force", action="store_true", help="filter clips already done again")
     p.add_argument("--progress", choices=["auto", "tqdm", "plain", "none"], default="auto")
