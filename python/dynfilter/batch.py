@@ -336,14 +336,18 @@ def run_batch(clips: list[Clip], settings: Settings, workers: int = 1,
     bar = _Progress(len(clips), progress)
     try:
         if ray_address is not None:
-            # No usage report leaves a cluster started here; it listens on loopback only.
+            # No usage report leaves a cluster started here, and it lives on loopback only:
+            # Ray turns a node address of 127.0.0.1 into the host's own address unless
+            # multi-node clusters are off (the switch Ray reads on Windows and macOS).
             os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+            if ray_address == "local":
+                os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
             import ray
             started = not ray.is_initialized()
             if started:
                 if ray_address == "local":
                     ray.init(num_cpus=max(1, workers), include_dashboard=False,
-                             log_to_driver=False, _node_ip_address="127.0.0.1")
+                             log_to_driver=False)
                 else:
                     ray.init(address=ray_address, log_to_driver=False)
             try:
