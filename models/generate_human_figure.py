@@ -91,6 +91,8 @@ SOLE_WIDTH_PER_FOOT = 0.38                # sole box width, fraction of foot len
 SOLE_THICKNESS_M = 0.03                   # sole box height (not scaled)
 FOOT_COM_HEIGHT_PER_ANKLE = 0.5           # foot CoM height above the sole, fraction of ankle height
 HEAD_SPHERE_RADIUS_PER_HEAD = 0.41        # head collision sphere radius, fraction of head length
+KNEE_SPHERE_RADIUS_PER_STATURE = 0.03     # knee collision sphere (on the shank, at the knee joint)
+ELBOW_SPHERE_RADIUS_PER_STATURE = 0.022   # elbow collision sphere (on the forearm, at the elbow)
 PALM_BREADTH_PER_STATURE = 0.05           # hand box extent along x (palm faces the thigh)
 PALM_THICKNESS_PER_STATURE = 0.017        # hand box extent along y
 PALM_LENGTH_PER_HAND = 1.2                # hand box extent along z, fraction of WJC->MET3
@@ -307,6 +309,8 @@ def build_model(height, mass):
         shank = Link(side + "_shank", shank_m, (0.0, 0.0, -sh["com"] * L["shank"]),
                      segment_inertia(shank_m, L["shank"], sh["r_sag"], sh["r_trans"], sh["r_long"]))
         shank.visuals.append(((0.0, 0.0, -0.5 * L["shank"]), cylinder(0.045 * s, L["shank"])))
+        # Knee: a kneeling or falling figure must not pass through the floor.
+        shank.collisions.append(((0.0, 0.0, 0.0), sphere(KNEE_SPHERE_RADIUS_PER_STATURE * height)))
 
         # Foot: longitudinal axis along x; sagittal radius about z, transverse about y.
         foot_m = reduced(M["foot"], "foot")
@@ -343,6 +347,7 @@ def build_model(height, mass):
                        segment_inertia(fa_m, L["forearm"], fa["r_trans"], fa["r_sag"], fa["r_long"]))
         forearm.visuals.append(((0.0, 0.0, -0.5 * L["forearm"]),
                                 cylinder(0.035 * s, L["forearm"])))
+        forearm.collisions.append(((0.0, 0.0, 0.0), sphere(ELBOW_SPHERE_RADIUS_PER_STATURE * height)))
 
         hand_m = reduced(M["hand"], "hand")
         hand = Link(side + "_hand", hand_m, (0.0, 0.0, -hn["com"] * L["hand"]),

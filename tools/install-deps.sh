@@ -12,7 +12,7 @@ export DEBIAN_FRONTEND=noninteractive
 packages=(
   build-essential cmake ninja-build pkg-config python3 python3-numpy
   libeigen3-dev
-  libdart-dev libdart-collision-bullet-dev libbullet-dev
+  libdart-dev libdart-collision-bullet-dev libbullet-dev libassimp-dev
   libode-dev
   liburdfdom-dev liburdfdom-headers-dev libconsole-bridge-dev libtinyxml2-dev
   liblcm-dev liblcm-bin libglib2.0-dev default-jdk-headless python3-venv
@@ -71,6 +71,19 @@ if ! "$venv/bin/python" -c "import importlib.metadata as m, sys; sys.exit(m.vers
     echo "error: could not install proxsuite $PROXSUITE_VERSION into $venv (needed by the build)" >&2
     exit 1
   }
+fi
+
+# A second robot for the demo and the results report: the Unitree G1 (29 DoF) of the
+# example-robot-data wheel (BSD-3-Clause robot description from Unitree, packaged by
+# LAAS-CNRS et al., BSD-2-Clause): URDFs and meshes only, no Python dependencies needed.
+# tools/g1-urdf.sh prints the G1 URDF's path. Only the G1 demo needs it: warn, go on.
+EXAMPLE_ROBOT_DATA_VERSION=6.0.0
+if [ -x "$venv/bin/python" ] &&
+   ! "$venv/bin/python" -c "import importlib.metadata as m, sys; sys.exit(m.version('example-robot-data') != '$EXAMPLE_ROBOT_DATA_VERSION')" 2>/dev/null; then
+  echo "installing the example-robot-data $EXAMPLE_ROBOT_DATA_VERSION wheel (robot URDFs) into $venv"
+  "$venv/bin/python" -m pip install -q --disable-pip-version-check --no-deps \
+    "example-robot-data==$EXAMPLE_ROBOT_DATA_VERSION" ||
+    echo "warning: could not install example-robot-data into $venv: no G1 demo" >&2
 fi
 
 # The Python package dynfilter (python/, README "Python"): pybind11 and the Python headers

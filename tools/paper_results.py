@@ -2,7 +2,7 @@
 """Reproduce the paper's four results (Yamane & Nakamura, dynamics filter) in one command.
 
     build/venv/bin/python tools/paper_results.py [--out build/results]
-        [--only walk,slope,jump,kick] [--check]
+        [--only walk,slope,jump,kick,g1_walk] [--check]
 
 For each result it retargets a CMU clip (dynfilter-bvh2ref), filters it (dynfilter-offline)
 and writes into --out:
@@ -30,6 +30,8 @@ import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
 SKIP = 77
 try:
     import numpy as np
@@ -53,12 +55,17 @@ RESULTS = {
     "slope": ("131_01_start_walk_stop.bvh", "131_01.yaml", "walk", ["--slope-deg", f"{SLOPE_DEG:g}"]),
     "jump": ("01_01_forward_jumps.bvh", "01_01.yaml", "jump", []),
     "kick": ("10_01_soccer_kick.bvh", "10_01.yaml", "kick", []),
+    "g1_walk": ("131_01_start_walk_stop.bvh", "131_01_g1.yaml", "g1_walk", []),
 }
+# Results on another robot than the human figure: the URDF comes from this command
+# (the Unitree G1 of the example-robot-data wheel, tools/install-deps.sh).
+ROBOTS = {"g1_walk": [str(ROOT / "tools" / "g1-urdf.sh")]}
 TITLES = {
     "walk": "Walk (CMU 131_01, start–walk–stop), flat ground",
     "slope": f"Walk on a {SLOPE_DEG:g}° downhill slope (same reference as walk)",
     "jump": "Forward jumps (CMU 01_01)",
     "kick": "Soccer kick (CMU 10_01)",
+    "g1_walk": "Walk (CMU 131_01) retargeted to the Unitree G1 (IK mode), flat ground",
 }
 GROUPS = {
     "legs": ("hip", "knee", "ankle"),
@@ -109,6 +116,7 @@ class Model:
                       if c in self.parent]
         self.moving = [self.joints[c][0] for c in self.links
                        if c in self.joints and self.joints[c][1] != "fixed"]
+        self.mass = sum(float(m.get("value")) for m in root.iter("mass"))
         self.effort = {}  # joint -> |tau| limit (N m), from <limit effort>
         for j in root.findall("joint"):
             lim = j.find("limit")
@@ -323,7 +331,8 @@ def metrics_of(filtered_csv, contacts_csv, model=None, mu=0.8):
     m["task_rot_rms_rad"] = float(math.sqrt(np.mean(np.sum(rot ** 2, axis=1))))
     m["max_eq12_residual"] = float(np.max(np.abs(t["eq12_residual"])))
     m["max_base_residual_n"] = float(np.max(np.abs(t["base_residual_n"])))
-    m["max_base_residual_rel_bw"] = m["max_base_residual_n"] / BODY_WEIGHT_N
+    weight = BODY_WEIGHT_N if model is None else model.mass * 9.81
+    m["max_base_residual_rel_bw"] = m["max_base_residual_n"] / weight
     m["max_penetration_mm"] = 1000.0 * float(np.max(t["max_penetration_m"]))
     ct, cb, cn = read_contacts(contacts_csv)
     m["frames_with_contact"] = int(len(np.unique(ct)))
@@ -344,6 +353,47 @@ def metrics_of(filtered_csv, contacts_csv, model=None, mu=0.8):
     m["status_flags"] = f"0x{flags:x}"
     if model is not None:
         m.update(limit_metrics(t, contacts_csv, model, mu))
+    return m
+
+
+def motion_metrics(filtered_csv, reference_csv, bodies_csv, contacts_csv, events_csv, model):
+    """Issue 13's per-mode numbers: re-seeds (every tick, from --events-csv), base and CoM
+    error, stance-foot skate in the output, the largest per-frame base jump."""
+    import diagnose_reseeds as dr  # the URDF's masses and forward kinematics with rotations
+    m = {}
+    reseeds = 0
+    if Path(events_csv).exists():
+        with open(events_csv, newline="") as f:
+            reseeds = sum(1 for r in csv.DictReader(f) if int(r["status"]) & 16)
+    m["reseed_ticks"] = reseeds
+    fil, ref = read_table(filtered_csv), read_table(reference_csv)
+    base = np.column_stack([fil[f"base_{c}"] for c in "xyz"])
+    m["base_rms_m"] = float(math.sqrt(np.mean(np.sum(np.column_stack(
+        [fil[f"err.base_{c}"] for c in "xyz"]) ** 2, axis=1))))
+    m["max_base_jump_mm"] = 1000.0 * float(np.max(np.linalg.norm(np.diff(base, axis=0), axis=1))) \
+        if len(base) > 1 else 0.0
+    body = dr.Body(URDF)
+    idx = np.clip(np.searchsorted(ref["time"], fil["time"] - 1e-9), 0, len(ref["time"]) - 1)
+    c_f = np.array([body.com_of(*body.fk(*q_of(fil, k, model.moving))) for k in range(len(fil["time"]))])
+    c_r = np.array([body.com_of(*body.fk(*q_of(ref, i, model.moving))) for i in idx])
+    m["com_rms_m"] = float(math.sqrt(np.mean(np.sum((c_f - c_r) ** 2, axis=1))))
+    # Skate: per stance (consecutive written frames with a contact on the foot), how far the
+    # foot's origin moves horizontally from where the stance began; the worst stance.
+    times, _, fil_b = read_bodies(bodies_csv, model.links)
+    c = read_contact_rows(contacts_csv)
+    worst = 0.0
+    for foot in [l for l in model.links if "foot" in l]:
+        li = model.links.index(foot)
+        on = set(np.round(c["time"][c["body"] == foot], 6)) if c else set()
+        start = None
+        for k, t in enumerate(times):
+            if round(float(t), 6) in on:
+                if start is None:
+                    start = k
+                worst = max(worst, float(np.linalg.norm(fil_b[k, li, :2] - fil_b[start, li, :2])))
+            else:
+                start = None
+    m["max_stance_skate_mm"] = 1000.0 * worst
     return m
 
 
@@ -431,7 +481,10 @@ def plots(name, filtered_csv, contacts_csv, out):
     time_s = t["time"]
     fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
     ax = axes[0]
-    for j in PLOT_JOINTS:
+    # The human figure's leg joints, or on another robot its hip pitch, knee, ankle pitch.
+    joints = [j for j in PLOT_JOINTS if f"{j}.tau" in t] or [
+        c[:-4] for c in t if c.endswith(".tau") and re.search("hip_pitch|knee|ankle_pitch", c)][:6]
+    for j in joints:
         if f"{j}.tau" in t:
             ax.plot(time_s, t[f"{j}.tau"], lw=1, label=j, ls="-" if j.startswith("l_") else "--")
     ax.set_ylabel("joint torque (N·m)")
@@ -551,6 +604,11 @@ MODE_ROWS = [
     ("max_base_residual_rel_bw", "max base residual / body weight", "{:.2e}"),
     ("max_penetration_mm", "max penetration (mm)", "{:.2f}"),
     ("frames_reseeded", "frames re-seeded from the reference (divergence guard)", "{:d}"),
+    ("reseed_ticks", "re-seeding ticks (every tick, --events-csv)", "{:d}"),
+    ("base_rms_m", "base position RMS (m)", "{:.4f}"),
+    ("com_rms_m", "centre of mass error RMS (m)", "{:.4f}"),
+    ("max_stance_skate_mm", "largest stance-foot skate in the output (mm)", "{:.1f}"),
+    ("max_base_jump_mm", "largest per-frame base jump (mm)", "{:.1f}"),
     ("frames_qp_relaxed", "frames answered by a QP relaxation", "{:d}"),
     ("frames_qp_fallback", "frames that fell back to the paper solve", "{:d}"),
     ("mean_tick_us", "mean time per tick (µs)", "{:.1f}"),
@@ -614,6 +672,8 @@ def write_report(out, entries, total_s, bodies_note):
             L += [e["note"], ""]
         L += [f"Generated {e['date']}; {e['seconds']:.1f} s.", "",
               f"![{n} filmstrip]({n}_filmstrip.png)", "",
+              f"QP mode: ![{n} QP filmstrip]({n}_qp_filmstrip.png)", "",
+              f"QP-mode animation: [{n}_qp_animation.gif]({n}_qp_animation.gif)", "",
               f"![{n} plots]({n}_plots.png)", "",
               f"Animation: [{n}_animation.gif]({n}_animation.gif)", "",
               "Commands (from the repository root):", "", "```"] + e["commands"] + ["```", ""]
@@ -633,7 +693,8 @@ def check(out, names):
             if isinstance(v, (int, float)):
                 assert math.isfinite(v), f"{n}: metric {k} = {v}"
         for suffix, magic in (("_filmstrip.png", b"\x89PNG\r\n\x1a\n"), ("_plots.png", b"\x89PNG\r\n\x1a\n"),
-                              ("_animation.gif", b"GIF8")):
+                              ("_animation.gif", b"GIF8"), ("_qp_filmstrip.png", b"\x89PNG\r\n\x1a\n"),
+                              ("_qp_animation.gif", b"GIF8")):
             p = out / f"{n}{suffix}"
             assert p.exists() and p.stat().st_size > 0, f"{p} missing or empty"
             assert p.read_bytes()[:len(magic)] == magic, f"{p}: bad signature"
@@ -672,7 +733,7 @@ def main():
     for b in (offline, bvh2ref):
         if not os.access(b, os.X_OK):
             sys.exit(f"paper_results: {b} not found; build first (cmake --build build)")
-    model = Model(URDF)
+    human = Model(URDF)
     native_bodies = has_bodies_option(offline)
     bodies_note = ("Link positions (`<name>_bodies.csv`) come from `dynfilter-offline "
                    "--bodies-csv` (forward kinematics of the reference and filtered frames)."
@@ -690,11 +751,19 @@ def main():
     for name in names:
         t_start = time.monotonic()
         bvh, mapping, stem, extra = RESULTS[name]
+        model, robot = human, []
+        if name in ROBOTS:
+            found = subprocess.run(ROBOTS[name], capture_output=True, text=True)
+            if found.returncode != 0:
+                print(f"{name}: skipped, {found.stderr.strip()}")
+                continue
+            urdf = found.stdout.strip()
+            model, robot = Model(urdf), ["--model", urdf]
         commands = []
         reference = out / f"{stem}_reference.csv"
         if stem not in made_refs:
             run([bvh2ref, str(CMU / bvh), "--mapping", str(CMU / "mappings" / mapping),
-                 "-o", str(reference)], out / f"{stem}_bvh2ref.log", commands)
+                 "-o", str(reference)] + robot, out / f"{stem}_bvh2ref.log", commands)
             made_refs[stem] = commands[-1]
         else:
             commands.append(made_refs[stem])
@@ -717,18 +786,24 @@ def main():
         filtered = out / f"{name}_filtered.csv"
         contacts = out / f"{name}_filtered.contacts.csv"
         bodies = out / f"{name}_bodies.csv"
-        cmd = [offline, str(reference), "-o", str(filtered), "--no-progress"] + extra
+        cmd = [offline, str(reference), "-o", str(filtered), "--no-progress",
+               "--events-csv", str(out / f"{name}_events.csv")] + extra + robot
         if native_bodies:
             cmd += ["--bodies-csv", str(bodies)]
         run(cmd, out / f"{name}_offline.log", commands)
         if not native_bodies:
             write_bodies_fk(model, reference, filtered, bodies)
         m = metrics_of(filtered, contacts, model)
+        m.update(motion_metrics(filtered, reference, bodies, contacts, out / f"{name}_events.csv", model))
         # The same input in the QP mode (issue 7): unilateral, friction, CoP, limits.
         filtered_qp = out / f"{name}_qp_filtered.csv"
-        run([offline, str(reference), "-o", str(filtered_qp), "--no-progress", "--mode", "qp"] + extra,
+        bodies_qp = out / f"{name}_qp_bodies.csv"
+        run([offline, str(reference), "-o", str(filtered_qp), "--no-progress", "--mode", "qp",
+             "--events-csv", str(out / f"{name}_qp_events.csv"), "--bodies-csv", str(bodies_qp)] + extra + robot,
             out / f"{name}_qp_offline.log", commands)
         m_qp = metrics_of(filtered_qp, out / f"{name}_qp_filtered.contacts.csv", model)
+        m_qp.update(motion_metrics(filtered_qp, reference, bodies_qp, out / f"{name}_qp_filtered.contacts.csv",
+                                   out / f"{name}_qp_events.csv", model))
         times, ref_b, fil_b = read_bodies(bodies, model.links)
         u = view_axes(reference, model)
         slope = SLOPE_DEG if "--slope-deg" in extra else 0.0
@@ -738,6 +813,11 @@ def main():
         plots(name, filtered, contacts, out / f"{name}_plots.png")
         fps, astep, nframes = animate(name, times, ref_b, fil_b, model, u, ground,
                                       out / f"{name}_animation.gif")
+        # The QP mode's motion, drawn the same way.
+        TITLES[f"{name}_qp"] = TITLES[name] + ", QP mode"
+        times_q, ref_q, fil_q = read_bodies(bodies_qp, model.links)
+        filmstrip(f"{name}_qp", times_q, ref_q, fil_q, model, u, ground, out / f"{name}_qp_filmstrip.png")
+        animate(f"{name}_qp", times_q, ref_q, fil_q, model, u, ground, out / f"{name}_qp_animation.gif")
         note += (" " if note else "") + (
             f"Side view along ({u[0]:.2f}, {u[1]:.2f}) in the horizontal plane; filmstrip every "
             f"{step} frames; animation {nframes} frames at {fps} fps (every {astep} frames).")

@@ -180,6 +180,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   qp.g.setZero();
   qp.g.head(nv_) = -wa * vdot_desired;
   if (wt > 0.0) qp.g.head(nv_ + nc).noalias() += wt * M.transpose() * b_J;
+  addObjectiveTasks(qp, nc);
 
   // Equalities: base rows, contact rows, unused τ_C slots = 0.
   qp.A.setZero();
@@ -361,6 +362,20 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     report.ok = acceptable();
   }
   return report;
+}
+
+// ---- objective tasks of the balance layer (beyond the paper's QP) ----------------------
+void ContactQp::addObjectiveTasks(DenseQp& qp, int nc) const {
+  if (tasks_ == nullptr || tasks_->rows <= 0) return;
+  const int m = tasks_->rows, n = nv_ + nc;
+  const auto T = tasks_->T.topLeftCorner(m, n);
+  const auto w = tasks_->w.head(m);
+  const auto r = tasks_->r.head(m);
+  for (int i = 0; i < m; ++i) {
+    if (w[i] <= 0.0) continue;
+    qp.H.topLeftCorner(n, n).noalias() += w[i] * T.row(i).transpose() * T.row(i);
+    qp.g.head(n).noalias() -= (w[i] * r[i]) * T.row(i).transpose();
+  }
 }
 
 std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,

@@ -8,6 +8,7 @@
 #include <Eigen/Cholesky>
 
 #include "dynfilter/core/errors.hpp"
+#include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/lie_group.hpp"
 
 namespace dynfilter {
@@ -42,7 +43,8 @@ DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& optio
       out_(model.nq(), model.nv(), model.nj(), options.contacts.max_links) {
   const ModelInfo& info = model.info();
   if (options_.task.enabled) {
-    task_body_ = info.findBody(options_.task.body);
+    task_body_ = options_.task.body.empty() ? chooseTrunkBody(model_)
+                                            : info.findBody(options_.task.body);
     if (task_body_ < 0)
       throw std::invalid_argument("filter option task.body: \"" + options_.task.body +
                                   "\" is not a link of model \"" + info.name + "\"");
@@ -54,6 +56,11 @@ DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& optio
           "equalities; use the task feedback of Eq. 19-20 (as_constraint_rows: false)");
     contact_qp_ = std::make_unique<ContactQp>(info, options_.contacts.max_links, options_.dt_s,
                                               options_.qp, qp_solver);
+    if (options_.balance.enabled && info.floating_base) {
+      balance_ = std::make_unique<BalanceLayer>(model, options_.balance);
+      balance_tasks_ = QpObjectiveTasks(balance_->maxTaskRows(), nv_ + 6 * options_.contacts.max_links);
+      contact_qp_->setObjectiveTasks(&balance_tasks_);
+    }
   }
   const int max_rows = 6 * options_.contacts.max_links;
   weight_n_ = std::max(info.total_mass, 1e-9) * kGravity;
@@ -134,6 +141,10 @@ void DynamicsFilter::reseed(const ReferenceFrame& reference) {
   }
 }
 
+bool DynamicsFilter::previewFrame(const ReferenceFrame& frame) {
+  return balance_ ? balance_->pushPreview(model_, frame) : false;
+}
+
 bool DynamicsFilter::setMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
                                       const Eigen::Ref<const Eigen::VectorXd>& v) {
   if (!model_.info().checkState(q, v).ok) return false;
@@ -191,6 +202,15 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
     if (nb_ > 0) last_reference_.q.segment<4>(3).normalize();
     last_reference_.v = reference.v;
     last_reference_.vdot = reference.vdot;
+    if (contact_qp_ && options_.qp.enforce_joint_limits) {
+      // The QP mode keeps the joints in their limits: a reference beyond them is tracked
+      // at the limit (the feedback would otherwise push against the stop for ever).
+      const ModelInfo& info = model_.info();
+      for (int j = 0; j < nj_; ++j) {
+        double& qj = last_reference_.q[info.configurationIndex(j)];
+        qj = std::clamp(qj, info.q_lower[j], info.q_upper[j]);
+      }
+    }
     if (!has_reference_) {
       has_reference_ = true;
       reseed(last_reference_);
@@ -207,7 +227,17 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
 
   // Reference kinematics: the task point P, and (QP mode) contact points the reference lifts.
   if (task_body_ >= 0 || contact_qp_) model_.setState(ref.q, ref.v);
-  if (contact_qp_) links_.startLiftoffReleases(model_, options_.qp.liftoff_clearance_m);
+  out_.infeasible_reason = 0;
+  if (contact_qp_ && !balance_) links_.startLiftoffReleases(model_, options_.qp.liftoff_clearance_m);
+  if (balance_) {
+    balance_->prepare(model_, ref, options_.dt_s);
+    links_.applyReferenceSchedule(balance_->referenceStance());
+    const InfeasibleReason infeasible = balance_->state().infeasible;
+    if (infeasible != InfeasibleReason::kNone) {
+      status |= kStatusReferenceInfeasible;
+      out_.infeasible_reason = static_cast<int>(infeasible);
+    }
+  }
   if (task_body_ >= 0) {
     const Eigen::Isometry3d X_WB = model_.bodyPose(task_body_);
     task_p_ref_ = X_WB * options_.task.p_BP;
@@ -225,6 +255,7 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   out_.max_penetration_m = 0.0;
   for (const ContactCandidate& c : candidates_)
     out_.max_penetration_m = std::max(out_.max_penetration_m, c.depth_m);
+  if (balance_) balance_->addSoleCandidates(model_, q_, v_, links_, candidates_);
   const int created = links_.update(model_, candidates_, status);
   const int nc = links_.numRows();
   auto H_C = H_C_.topRows(nc);
@@ -242,6 +273,11 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   model_.bias(b_);
   links_.assemble(model_, H_C, u_C);
   desiredAcceleration(ref);
+  if (balance_) {
+    balance_->buildTasks(model_, A_, q_, v_, links_, balance_tasks_);
+    out_.com_W = balance_->state().filter.c_W;
+    out_.com_reference_W = balance_->state().reference.c_W;
+  }
 
   const Clock::time_point t_solve = Clock::now();
   status |= contact_qp_ ? solveQp(H_C, u_C, tau_C) : solvePaper(H_C, u_C, tau_C);
@@ -305,6 +341,10 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
     reason = ReseedReason::kJoint;
   else if (degraded_ticks_ >= guard.max_degraded_ticks)
     reason = ReseedReason::kDegradedSolve;
+  // A reference that cannot be followed physically is reported (kStatusReferenceInfeasible),
+  // not chased by teleports: tracking errors do not re-seed while it lasts.
+  if ((status & kStatusReferenceInfeasible) && reason != ReseedReason::kDegradedSolve)
+    reason = ReseedReason::kNone;
   out_.reseed_reason = reason;
   if (reason != ReseedReason::kNone) {
     status |= kStatusReseeded;

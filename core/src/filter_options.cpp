@@ -26,7 +26,6 @@ void FilterOptions::validate() const {
           "task.k*", "gains must be finite and >= 0");
   require(positive(task.joint_weight), "task.joint_weight", "must be > 0");
   require(task.p_BP.allFinite(), "task.p_BP", "must be finite");
-  require(!task.enabled || !task.body.empty(), "task.body", "must name a link");
   require(contacts.max_links >= 1 && contacts.max_links <= 64, "contacts.max_links",
           "must be in [1, 64]");
   require(nonNegative(contacts.stabilization_kp) && nonNegative(contacts.stabilization_kd),
@@ -62,6 +61,21 @@ void FilterOptions::validate() const {
   require(positive(qp.joint_limit_max_decel), "qp.joint_limit_max_decel", "must be > 0");
   require(positive(qp.solver.eps_abs), "qp.solver.eps_abs", "must be > 0");
   require(qp.solver.max_iterations >= 1, "qp.solver.max_iterations", "must be >= 1");
+  require(nonNegative(balance.com_weight) && nonNegative(balance.dcm_gain) &&
+              nonNegative(balance.height_kp) && nonNegative(balance.height_kd) &&
+              nonNegative(balance.angular_momentum_damping) &&
+              nonNegative(balance.angular_momentum_weight) && nonNegative(balance.sole_weight) &&
+              nonNegative(balance.sole_kp) && nonNegative(balance.sole_kd),
+          "balance.*", "weights and gains must be finite and >= 0");
+  require(nonNegative(balance.preview_s), "balance.preview_s", "must be >= 0 s");
+  require(balance.preview_capacity >= 2 && balance.preview_capacity <= 100000,
+          "balance.preview_capacity", "must be in [2, 100000]");
+  require(nonNegative(balance.sole_margin_m), "balance.sole_margin_m", "must be >= 0 m");
+  require(positive(balance.stance_height_m), "balance.stance_height_m", "must be > 0");
+  require(positive(balance.stance_speed_mps), "balance.stance_speed_mps", "must be > 0");
+  for (const SoleOptions& sole : balance.soles)
+    require(!sole.body.empty() && sole.n_B.allFinite() && sole.n_B.norm() > 1e-9,
+            "balance.soles", "each needs a body and a non-zero sole normal");
 }
 
 bool parseFilterMode(const std::string& text, FilterMode& mode) {

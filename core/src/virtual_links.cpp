@@ -9,6 +9,8 @@
 namespace dynfilter {
 namespace {
 
+constexpr double kLiftedPairMaxDepth = 0.005;  // m
+
 // A unit vector orthogonal to n, preferring the projection of @p hint.
 Eigen::Vector3d tangentFrom(const Eigen::Vector3d& n, const Eigen::Vector3d& hint) {
   Eigen::Vector3d t = hint - n * n.dot(hint);
@@ -59,7 +61,8 @@ void VirtualLinkSet::reanchor(const IDynamicsModel& model) {
 void VirtualLinkSet::releaseAll() {
   for (int i = 0; i < size_ && num_released_ < static_cast<int>(released_.size()); ++i) {
     const VirtualLink& link = links_[static_cast<std::size_t>(i)];
-    if (!isReleased(link.body, link.object)) released_[static_cast<std::size_t>(num_released_++)] = {link.body, link.object};
+    if (!isReleased(link.body, link.object))
+      released_[static_cast<std::size_t>(num_released_++)] = {link.body, link.object, link.X_BC, link.X_WA, false};
   }
   size_ = 0;
 }
@@ -196,7 +199,10 @@ int VirtualLinkSet::update(const IDynamicsModel& model, const ContactList& candi
     double depth = -1.0;
     for (const ContactCandidate& c : candidates)
       if (c.body == pair.body && c.object == pair.object) depth = std::max(depth, c.depth_m);
-    if (depth >= 0.0 && depth < options_.reengage_depth_m)
+    // A pair the reference lifts stays free unless it sinks deeper than kLiftedPairMaxDepth:
+    // no body passes through the floor.
+    if (depth >= 0.0 && (depth < options_.reengage_depth_m ||
+                         (pair.reference_lifted && depth < kLiftedPairMaxDepth)))
       released_[static_cast<std::size_t>(kept++)] = pair;
   }
   num_released_ = kept;
@@ -265,7 +271,35 @@ void VirtualLinkSet::assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::Mat
   }
 }
 
+void VirtualLinkSet::applyReferenceSchedule(std::uint64_t stance_bodies) {
+  auto inStance = [&](int body) { return body >= 64 || ((stance_bodies >> body) & 1u) != 0; };
+  // A link the reference lifts is let go only once another held link carries the load
+  // the reference puts on its stance bodies (or the reference has none: flight): the
+  // figure does not lose all support while its next foot is still in the air.
+  bool other_support = stance_bodies == 0;
+  for (int i = 0; i < size_; ++i) other_support = other_support || inStance(links_[static_cast<std::size_t>(i)].body);
+  for (int i = 0; i < size_; ++i) {
+    VirtualLink& link = links_[static_cast<std::size_t>(i)];
+    link.reference_stance = inStance(link.body);
+    if (link.releasing || link.reference_stance || !other_support) continue;
+    link.releasing = true;
+    link.release_elapsed_s = 0.0;
+    link.release_start_force_n = link.normal_force_n;
+  }
+  for (int r = 0; r < num_released_; ++r) {
+    ReleasedPair& pair = released_[static_cast<std::size_t>(r)];
+    pair.reference_lifted = !inStance(pair.body);
+  }
+}
+
 int VirtualLinkSet::startLiftoffReleases(const IDynamicsModel& model, double clearance_m) {
+  for (int r = 0; r < num_released_; ++r) {
+    ReleasedPair& pair = released_[static_cast<std::size_t>(r)];
+    if (!pair.reference_lifted) continue;
+    const Eigen::Vector3d p_WC = (model.bodyPose(pair.body) * pair.X_BC).translation();
+    pair.reference_lifted =
+        pair.X_WA.linear().col(2).dot(p_WC - pair.X_WA.translation()) > 0.5 * clearance_m;
+  }
   int started = 0;
   for (int i = 0; i < size_; ++i) {
     VirtualLink& link = links_[static_cast<std::size_t>(i)];
@@ -327,9 +361,11 @@ int VirtualLinkSet::finishTick(const IDynamicsModel& model,
       ramp_done = link.release_elapsed_s >= transition_s + 0.5 * dt_s;
     }
     const bool release =
-        allow_release && (link.low_force_ticks >= options_.release_ticks || ramp_done);
+        allow_release &&
+        ((link.low_force_ticks >= options_.release_ticks && !link.reference_stance) || ramp_done);
     if (release && num_released_ < static_cast<int>(released_.size())) {
-      released_[static_cast<std::size_t>(num_released_++)] = {link.body, link.object};
+      released_[static_cast<std::size_t>(num_released_++)] = {link.body, link.object, link.X_BC,
+                                                               link.X_WA, link.releasing};
       continue;
     }
     links_[static_cast<std::size_t>(kept++)] = link;

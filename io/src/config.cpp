@@ -195,6 +195,31 @@ class Parser {
             });
   }
 
+  void readBalance(const Entry& e, BalanceOptions& b) {
+    readMap(e,
+            {"enabled", "com_weight", "dcm_gain", "height_kp", "height_kd",
+             "angular_momentum_damping", "angular_momentum_weight", "preview_s",
+             "preview_capacity", "stance_height_m", "stance_speed_mps", "sole_weight", "sole_kp",
+             "sole_kd", "sole_margin_m"},
+            [&](const std::string& k, const Entry& v) {
+              if (k == "enabled") b.enabled = boolean(v);
+              if (k == "com_weight") b.com_weight = number(v);
+              if (k == "dcm_gain") b.dcm_gain = number(v);
+              if (k == "height_kp") b.height_kp = number(v);
+              if (k == "height_kd") b.height_kd = number(v);
+              if (k == "angular_momentum_damping") b.angular_momentum_damping = number(v);
+              if (k == "angular_momentum_weight") b.angular_momentum_weight = number(v);
+              if (k == "preview_s") b.preview_s = number(v);
+              if (k == "preview_capacity") b.preview_capacity = integer(v);
+              if (k == "stance_height_m") b.stance_height_m = number(v);
+              if (k == "stance_speed_mps") b.stance_speed_mps = number(v);
+              if (k == "sole_weight") b.sole_weight = number(v);
+              if (k == "sole_kp") b.sole_kp = number(v);
+              if (k == "sole_kd") b.sole_kd = number(v);
+              if (k == "sole_margin_m") b.sole_margin_m = number(v);
+            });
+  }
+
   void readQp(const Entry& e, QpModeOptions& q) {
     readMap(e,
             {"accel_weight", "force_weight", "torque_weight", "min_normal_force_n",
@@ -296,7 +321,7 @@ class Parser {
     FilterOptions& f = config.filter;
     readMap(top,
             {"dt_s", "mode", "feedback", "task", "contacts", "solver", "qp", "divergence",
-             "environment"},
+             "balance", "environment"},
             [&](const std::string& k, const Entry& v) {
               if (k == "dt_s") f.dt_s = number(v);
               if (k == "mode" && !parseFilterMode(text(v), f.mode))
@@ -307,6 +332,7 @@ class Parser {
               if (k == "contacts") readContacts(v, f.contacts);
               if (k == "solver") readSolver(v, f.solver);
               if (k == "divergence") readDivergence(v, f.divergence);
+              if (k == "balance") readBalance(v, f.balance);
               if (k == "environment") readEnvironment(v, config.environment);
             });
     try {

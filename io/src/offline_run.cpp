@@ -5,13 +5,15 @@
 #include <stdexcept>
 #include <string>
 
-#include "dynfilter/core/dynamics_filter.hpp"
 
 namespace dynfilter::io {
 
 void OfflineRunOptions::validate() const {
   if (!std::isfinite(tick_hz) || tick_hz <= 0.0)
     throw std::invalid_argument("tick_hz must be finite and > 0, got " + std::to_string(tick_hz));
+  if (preview_s < 0.0 || std::isinf(preview_s))
+    throw std::invalid_argument("preview_s must be >= 0 (or NaN: the whole clip), got " +
+                                std::to_string(preview_s));
 }
 
 OfflineSchedule planOfflineRun(const ReferenceMotion& motion, const OfflineRunOptions& options) {
@@ -38,22 +40,30 @@ OfflineSchedule runOffline(IDynamicsModel& model, FilterOptions filter_options,
                            const QpSolverFactory& qp_solver,
                            const std::function<void(const OfflineTick&)>& on_tick) {
   const OfflineSchedule s = planOfflineRun(motion, options);
-  filter_options.dt_s = s.dt_s;
   const auto& frames = motion.frames;
   const double t0 = frames.front().time_s, dt = s.dt_s;
+  filter_options.dt_s = s.dt_s;
+  filter_options.balance.preview_s =
+      std::isnan(options.preview_s) ? frames.back().time_s - t0 : options.preview_s;
+  filter_options.balance.preview_capacity =
+      std::max(filter_options.balance.preview_capacity, static_cast<int>(frames.size()) + 1);
 
   DynamicsFilter filter(model, filter_options, qp_solver);
   filter.reset(frames.front());
   ReferenceFrame ref(model.nq(), model.nv());
-  std::size_t segment = 0, next_frame = 0;
+  std::size_t segment = 0, next_frame = 0, previewed = 0;
   OfflineTick tick;
   tick.count = s.ticks;
   tick.reference = &ref;
+  tick.filter = &filter;
   for (long k = 0; k < s.ticks; ++k) {
     const double t = s.uniform ? frames[static_cast<std::size_t>(k / s.substeps)].time_s +
                                      static_cast<double>(k % s.substeps) * dt
                                : t0 + static_cast<double>(k) * dt;
     while (segment + 2 < frames.size() && frames[segment + 1].time_s <= t) ++segment;
+    while (previewed < frames.size() &&
+           frames[previewed].time_s <= t + filter_options.balance.preview_s + 1e-9)
+      filter.previewFrame(frames[previewed++]);
     interpolateReference(model.info().floating_base, frames[segment], frames[segment + 1], t, ref);
     const FilterOutput& out = filter.step(ref);
     bool row = options.every_tick || (s.uniform && k % s.substeps == 0);
@@ -63,6 +73,7 @@ OfflineSchedule runOffline(IDynamicsModel& model, FilterOptions filter_options,
         ++next_frame;
       }
     tick.index = k;
+    tick.time_s = t;
     tick.row = row;
     tick.output = &out;
     if (on_tick) on_tick(tick);

@@ -12,9 +12,13 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <Eigen/Cholesky>
 #include <yaml-cpp/yaml.h>
 
+#include "dynfilter/core/kinematic_tree.hpp"
+#include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/io/pose_ik.hpp"
 
 namespace dynfilter::io {
 namespace {
@@ -90,6 +94,26 @@ class MappingParser {
     return out;
   }
 
+  Eigen::Vector3d anyVector3(const YAML::Node& v, const std::string& key) const {
+    if (!v.IsSequence() || v.size() != 3) fail(v.Mark(), key + ": expected [x, y, z]");
+    Eigen::Vector3d out;
+    for (int i = 0; i < 3; ++i) out[i] = number(v[static_cast<std::size_t>(i)], key);
+    return out;
+  }
+
+  double weight(const YAML::Node& v, const std::string& key) const {
+    const double x = number(v, key);
+    if (x < 0) fail(v.Mark(), key + ": must be >= 0");
+    return x;
+  }
+
+  std::vector<std::string> names(const YAML::Node& v, const std::string& key) const {
+    if (!v.IsSequence() || v.size() == 0) fail(v.Mark(), key + ": expected a list of names");
+    std::vector<std::string> out;
+    for (const auto& item : v) out.push_back(text(item, key));
+    return out;
+  }
+
   RetargetMapping parse(const std::string& yaml_text) {
     YAML::Node root;
     try {
@@ -103,7 +127,8 @@ class MappingParser {
     bool have_segments = false;
     readMap(root, "mapping",
             {"length_scale", "skip_frames", "up_axis", "bvh_forward", "root", "segments",
-             "ground_frames", "smoothing_window", "clamp_to_limits"},
+             "ground_frames", "smoothing_window", "clamp_to_limits", "mode", "ik",
+             "allow_unmapped", "cleanup"},
             [&](const std::string& k, const YAML::Node& v) {
               if (k == "length_scale") {
                 m.length_scale = number(v, k);
@@ -121,12 +146,15 @@ class MappingParser {
                 if (k == "bvh_forward") forward_mark_ = v.Mark();
               } else if (k == "root") {
                 bool have_bvh = false;
-                readMap(v, "root", {"bvh", "link"}, [&](const std::string& rk, const YAML::Node& rv) {
+                readMap(v, "root", {"bvh", "link", "position", "offset_xyz"},
+                        [&](const std::string& rk, const YAML::Node& rv) {
                   if (rk == "bvh") {
                     m.root_bvh = text(rv, "root.bvh");
                     have_bvh = true;
                   }
                   if (rk == "link") m.root_link = text(rv, "root.link");
+                  if (rk == "position") m.root_position = names(rv, "root.position");
+                  if (rk == "offset_xyz") m.root_offset_xyz = anyVector3(rv, "root.offset_xyz");
                 });
                 if (!have_bvh) fail(v.Mark(), "root: missing key \"bvh\"");
               } else if (k == "segments") {
@@ -137,17 +165,30 @@ class MappingParser {
                   RetargetSegment s;
                   s.line = lineOf(item);
                   readMap(item, "segment",
-                          {"link", "bvh", "bone_end", "align", "figure_bone", "hinge_twist"},
+                          {"link", "bvh", "bone_end", "align", "figure_bone", "hinge_twist",
+                           "flexion", "offset_xyz", "offset_rpy", "position_weight",
+                           "orientation_weight"},
                           [&](const std::string& sk, const YAML::Node& sv) {
                             if (sk == "link") s.link = text(sv, sk);
                             if (sk == "bvh") s.bvh = text(sv, sk);
                             if (sk == "bone_end") s.bone_end = text(sv, sk);
                             if (sk == "align") s.align = boolean(sv, sk);
                             if (sk == "hinge_twist") s.hinge_twist = boolean(sv, sk);
-                            if (sk == "figure_bone") {
-                              s.figure_bone = vector3(sv, sk).normalized();
-                              s.has_figure_bone = true;
+                            if (sk == "figure_bone") s.figure_bone = vector3(sv, sk).normalized();
+                            if (sk == "flexion") {
+                              s.flexion = vector3(sv, sk).normalized();
+                              s.has_flexion = true;
                             }
+                            if (sk == "offset_xyz") s.offset_xyz = anyVector3(sv, sk);
+                            if (sk == "offset_rpy") {
+                              const Eigen::Vector3d rpy = anyVector3(sv, sk);
+                              s.R_offset = (Eigen::AngleAxisd(rpy[2], Eigen::Vector3d::UnitZ()) *
+                                            Eigen::AngleAxisd(rpy[1], Eigen::Vector3d::UnitY()) *
+                                            Eigen::AngleAxisd(rpy[0], Eigen::Vector3d::UnitX()))
+                                               .toRotationMatrix();
+                            }
+                            if (sk == "position_weight") s.position_weight = weight(sv, sk);
+                            if (sk == "orientation_weight") s.orientation_weight = weight(sv, sk);
                           });
                   if (s.link.empty()) fail(item.Mark(), "segment: missing key \"link\"");
                   if (s.bvh.empty()) fail(item.Mark(), "segment: missing key \"bvh\"");
@@ -164,6 +205,47 @@ class MappingParser {
                   fail(v.Mark(), "smoothing_window: must be odd and >= 3");
               } else if (k == "clamp_to_limits") {
                 m.clamp_to_limits = boolean(v, k);
+              } else if (k == "allow_unmapped") {
+                m.allow_unmapped = boolean(v, k);
+              } else if (k == "mode") {
+                const std::string mode = text(v, k);
+                if (mode == "chain") m.mode = RetargetMode::kChain;
+                else if (mode == "ik") m.mode = RetargetMode::kIk;
+                else fail(v.Mark(), "mode: expected chain or ik, got \"" + mode + "\"");
+              } else if (k == "ik") {
+                readMap(v, "ik", {"scale", "max_iterations", "posture_weight"},
+                        [&](const std::string& ik, const YAML::Node& iv) {
+                  if (ik == "scale") {
+                    m.ik.scale = number(iv, "ik.scale");
+                    if (m.ik.scale < 0) fail(iv.Mark(), "ik.scale: must be >= 0 (0: auto)");
+                  }
+                  if (ik == "max_iterations") {
+                    m.ik.max_iterations = integer(iv, "ik.max_iterations");
+                    if (m.ik.max_iterations < 1) fail(iv.Mark(), "ik.max_iterations: must be >= 1");
+                  }
+                  if (ik == "posture_weight") m.ik.posture_weight = weight(iv, "ik.posture_weight");
+                });
+              } else if (k == "cleanup") {
+                ReferenceCleanupOptions& c = m.cleanup;
+                readMap(v, "cleanup",
+                        {"feet", "contact_height", "contact_speed", "min_phase_s", "blend_s",
+                         "base_weight", "posture_weight", "leg_weight"},
+                        [&](const std::string& ck, const YAML::Node& cv) {
+                  const std::string key = "cleanup." + ck;
+                  if (ck == "feet") c.feet = names(cv, key);
+                  if (ck == "contact_height") c.contact_height = number(cv, key);
+                  if (ck == "contact_speed") c.contact_speed = number(cv, key);
+                  if (ck == "min_phase_s") c.min_phase_s = number(cv, key);
+                  if (ck == "blend_s") c.blend_s = number(cv, key);
+                  if (ck == "base_weight") c.base_weight = weight(cv, key);
+                  if (ck == "posture_weight") c.posture_weight = weight(cv, key);
+                  if (ck == "leg_weight") c.leg_weight = weight(cv, key);
+                  try {
+                    c.validate();
+                  } catch (const std::invalid_argument& e) {
+                    fail(cv.Mark(), e.what());
+                  }
+                });
               }
             });
     if (!have_segments) fail(root.Mark(), "missing key \"segments\"");
@@ -196,40 +278,41 @@ void axisIndex(const Eigen::Vector3d& a, int& index, double& sign) {
     throw std::invalid_argument("decomposeRotation: axis is not axis-aligned");
 }
 
-// ---- figure structure -----------------------------------------------------------------
+// Chain mode: largest change of a joint angle between frames accepted from a switch of
+// the Tait–Bryan branch made to stay inside the limits (rad).
+constexpr double kMaxBranchJumpRad = 0.5;
 
-struct JointGroup {
-  const char* parent;
-  const char* child;
-  std::vector<const char*> joints;
-};
+// IK mode: weight of the base pose target (the root link's), and of the posture term that
+// holds unmapped joints (allow_unmapped) at their neutral value.
+constexpr double kIkRootWeight = 3.0;
+constexpr double kIkUnmappedWeight = 100.0;
 
-const std::vector<JointGroup>& humanFigureGroups() {
-  static const std::vector<JointGroup> groups = {
-      {"pelvis", "torso", {"waist_yaw", "waist_roll", "waist_pitch"}},
-      {"torso", "head", {"neck_yaw", "neck_roll", "neck_pitch"}},
-      {"pelvis", "l_thigh", {"l_hip_yaw", "l_hip_roll", "l_hip_pitch"}},
-      {"l_thigh", "l_shank", {"l_knee"}},
-      {"l_shank", "l_foot", {"l_ankle_pitch", "l_ankle_roll"}},
-      {"pelvis", "r_thigh", {"r_hip_yaw", "r_hip_roll", "r_hip_pitch"}},
-      {"r_thigh", "r_shank", {"r_knee"}},
-      {"r_shank", "r_foot", {"r_ankle_pitch", "r_ankle_roll"}},
-      {"torso", "l_upper_arm", {"l_shoulder_pitch", "l_shoulder_roll", "l_shoulder_yaw"}},
-      {"l_upper_arm", "l_forearm", {"l_elbow", "l_forearm_yaw"}},
-      {"l_forearm", "l_hand", {"l_wrist_pitch", "l_wrist_roll"}},
-      {"torso", "r_upper_arm", {"r_shoulder_pitch", "r_shoulder_roll", "r_shoulder_yaw"}},
-      {"r_upper_arm", "r_forearm", {"r_elbow", "r_forearm_yaw"}},
-      {"r_forearm", "r_hand", {"r_wrist_pitch", "r_wrist_roll"}},
-  };
-  return groups;
-}
-
-// The figure's bone direction of a link at q = 0, in the link frame.
-Eigen::Vector3d defaultFigureBone(const std::string& link) {
-  if (link == "torso" || link == "head" || link == "pelvis") return Eigen::Vector3d::UnitZ();
-  if (link.size() > 4 && link.compare(link.size() - 4, 4, "foot") == 0)
-    return Eigen::Vector3d::UnitX();
-  return -Eigen::Vector3d::UnitZ();
+// Angles θ (3) of R(θ) = R_a0(θ0) R_a1(θ1) R_a2(θ2) inside the joints' limits nearest to
+// @p R in rotation, by damped Gauss–Newton from @p theta (the damping keeps the answer
+// near the start where the rotation does not determine it).
+void limitedRotationFit(const Eigen::Matrix3d& R, const std::vector<Eigen::Vector3d>& axes,
+                        const std::vector<int>& joints, const ModelInfo& info,
+                        std::vector<double>& theta) {
+  constexpr double kDamping = 1e-2;
+  for (int it = 0; it < 30; ++it) {
+    Eigen::Matrix3d Ra[3];
+    for (int a = 0; a < 3; ++a)
+      Ra[a] = Eigen::AngleAxisd(theta[static_cast<std::size_t>(a)], axes[static_cast<std::size_t>(a)]).toRotationMatrix();
+    const Eigen::Matrix3d Rt = Ra[0] * Ra[1] * Ra[2];
+    const Eigen::Vector3d e = logSO3(Rt.transpose() * R);  // child frame
+    Eigen::Matrix3d J;
+    J.col(0) = (Ra[1] * Ra[2]).transpose() * axes[0];
+    J.col(1) = Ra[2].transpose() * axes[1];
+    J.col(2) = axes[2];
+    const Eigen::Vector3d d =
+        (J.transpose() * J + kDamping * Eigen::Matrix3d::Identity()).ldlt().solve(J.transpose() * e);
+    for (int a = 0; a < 3; ++a) {
+      const int j = joints[static_cast<std::size_t>(a)];
+      theta[static_cast<std::size_t>(a)] =
+          std::clamp(theta[static_cast<std::size_t>(a)] + d[a], info.q_lower[j], info.q_upper[j]);
+    }
+    if (d.lpNorm<Eigen::Infinity>() < 1e-10) break;
+  }
 }
 
 // The angle in [−π, π).
@@ -238,10 +321,17 @@ double wrapAngle(double angle) {
   return angle - two_pi * std::floor((angle + M_PI) / two_pi);
 }
 
-struct SegmentCalib {
+// A mapped link: its BVH joint, body, calibration and joint group.
+struct Segment {
+  const RetargetSegment* spec = nullptr;  // null for the root
+  std::string link;
   int bvh_joint = -1;
   int body = -1;
   Eigen::Matrix3d C = Eigen::Matrix3d::Identity();
+  int parent = -1;                  // nearest mapped ancestor (index into the segments)
+  std::vector<int> joints;          // moving joints from the parent's body to this one
+  std::vector<Eigen::Vector3d> axes;  // chain mode: their axes in the parent's frame
+  int line = 0;
 };
 
 }  // namespace
@@ -322,6 +412,7 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
                                 " BVH frames minus skip_frames " + std::to_string(first) +
                                 " leave fewer than 2 frames");
   const Eigen::Matrix3d R_conv = mapping.axisConversion();
+  const bool ik_mode = mapping.mode == RetargetMode::kIk;
 
   auto bvhJoint = [&](const std::string& name, int line) {
     const int j = bvh.findJoint(name);
@@ -351,20 +442,26 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
   };
 
   // Segments: the root first, then the list.
-  std::map<std::string, SegmentCalib> seg;
+  std::vector<Segment> segs;
   {
-    SegmentCalib root;
+    Segment root;
+    root.link = mapping.root_link;
     root.bvh_joint = bvhJoint(mapping.root_bvh, 0);
     root.body = body(mapping.root_link, 0);
     root.C = R_conv.transpose();
-    seg[mapping.root_link] = root;
+    segs.push_back(root);
   }
   for (const RetargetSegment& s : mapping.segments) {
-    SegmentCalib c;
+    if (s.link == mapping.root_link)
+      throw InputError(mapping.source, s.line, "link \"" + s.link + "\" is the root link");
+    Segment c;
+    c.spec = &s;
+    c.link = s.link;
+    c.line = s.line;
     c.bvh_joint = bvhJoint(s.bvh, s.line);
     c.body = body(s.link, s.line);
     Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
-    if (s.align && s.link != mapping.root_link) {
+    if (s.align) {
       int end = -1;
       if (!s.bone_end.empty()) {
         end = bvhJoint(s.bone_end, s.line);
@@ -385,39 +482,63 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
           rest[static_cast<std::size_t>(end)] - rest[static_cast<std::size_t>(c.bvh_joint)];
       if (bone.norm() < 1e-9)
         throw InputError(mapping.source, s.line, "segment " + s.link + ": zero-length bone");
-      const Eigen::Vector3d d_fig = s.has_figure_bone ? s.figure_bone : defaultFigureBone(s.link);
-      A = Eigen::Quaterniond::FromTwoVectors(d_fig, R_conv * bone).toRotationMatrix();
+      A = Eigen::Quaterniond::FromTwoVectors(s.figure_bone, R_conv * bone).toRotationMatrix();
     }
     c.C = R_conv.transpose() * A;
-    seg[s.link] = c;
+    segs.push_back(c);
   }
 
-  // Hinge twist: the twist of a thigh / upper arm about its bone is taken from the data so
-  // that the BVH's knee / elbow bends in the plane of the figure's hinge: F = the mean
-  // direction (perpendicular to the bone) into which the child bone deflects, over all
-  // frames, is mapped onto the figure's flexion direction (knee −x, elbow +x of the parent
-  // frame). Kept as calibrated from the rest pose when the clip hardly bends the joint.
-  struct Hinge {
-    const char* parent;
-    const char* child;
-    Eigen::Vector3d flexion_dir;
-  };
-  const Hinge hinges[] = {{"l_thigh", "l_shank", -Eigen::Vector3d::UnitX()},
-                          {"r_thigh", "r_shank", -Eigen::Vector3d::UnitX()},
-                          {"l_upper_arm", "l_forearm", Eigen::Vector3d::UnitX()},
-                          {"r_upper_arm", "r_forearm", Eigen::Vector3d::UnitX()}};
+  // The tree between mapped links: each segment's nearest mapped ancestor and the moving
+  // joints between them.
+  const KinematicTree tree = kinematicTreeOf(model);
+  if (tree.body_parent_joint[static_cast<std::size_t>(segs[0].body)] >= 0)
+    throw InputError(mapping.source, 0,
+                     "root.link \"" + mapping.root_link + "\" is moved by joints of model " +
+                         info.name + ": map the floating base link (" +
+                         info.body_names[static_cast<std::size_t>(tree.base_body)] + ")");
+  for (std::size_t c = 1; c < segs.size(); ++c) {
+    Segment& C = segs[c];
+    std::size_t best_joints = std::numeric_limits<std::size_t>::max();
+    for (std::size_t p = 0; p < segs.size(); ++p) {
+      if (p == c || !tree.isAncestorOrRigid(segs[p].body, C.body)) continue;
+      const std::vector<int> joints = tree.jointsBetween(segs[p].body, C.body);
+      if (joints.empty())
+        throw InputError(mapping.source, C.line,
+                         "link \"" + C.link + "\" is rigidly attached to mapped link \"" +
+                             segs[p].link + "\": map only one of them");
+      if (joints.size() < best_joints) {
+        best_joints = joints.size();
+        C.parent = static_cast<int>(p);
+        C.joints = joints;
+      }
+    }
+  }
+
+  // Hinge twist: the twist of a segment with `flexion` (a thigh, an upper arm) about its
+  // bone is taken from the data so that the BVH's hinge (knee, elbow) bends in the plane
+  // of the model's: F = the mean direction (perpendicular to the bone) into which the
+  // child bone deflects, over all frames, is mapped onto the flexion direction. Kept as
+  // calibrated from the rest pose when the clip hardly bends the joint.
   {
     std::vector<Eigen::Isometry3d> Xh;
-    for (const Hinge& h : hinges) {
-      if (!seg.count(h.parent) || !seg.count(h.child)) continue;
-      const RetargetSegment* ps = nullptr;
-      for (const RetargetSegment& s : mapping.segments)
-        if (s.link == h.parent) ps = &s;
-      if (ps == nullptr || !ps->align || !ps->hinge_twist) continue;
-      SegmentCalib& P = seg[h.parent];
-      const SegmentCalib& Cc = seg[h.child];
-      const Eigen::Vector3d d_p = ps->has_figure_bone ? ps->figure_bone : defaultFigureBone(h.parent);
-      const Eigen::Vector3d d_c = defaultFigureBone(h.child);
+    for (std::size_t p = 1; p < segs.size(); ++p) {
+      Segment& P = segs[p];
+      const RetargetSegment& ps = *P.spec;
+      if (!ps.has_flexion) continue;
+      int child = -1, children = 0;
+      for (std::size_t c = 1; c < segs.size(); ++c)
+        if (segs[c].parent == static_cast<int>(p)) {
+          child = static_cast<int>(c);
+          ++children;
+        }
+      if (children != 1)
+        throw InputError(mapping.source, ps.line,
+                         "flexion: link \"" + P.link + "\" needs exactly one mapped child link (has " +
+                             std::to_string(children) + ")");
+      if (!ps.align || !ps.hinge_twist) continue;
+      const Segment& Cc = segs[static_cast<std::size_t>(child)];
+      const Eigen::Vector3d& d_p = ps.figure_bone;
+      const Eigen::Vector3d& d_c = Cc.spec->figure_bone;
       // Bone of the parent in its BVH joint frame, and the child's bone in the child's.
       const Eigen::Vector3d b_p = (P.C * d_p).normalized();
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -431,86 +552,155 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
         mean_sin += w.norm() / count;
       }
       if (mean_sin < std::sin(10.0 * M_PI / 180.0) || sum.norm() < 1e-9) continue;
-      // A maps the figure's (bone, flexion direction) onto the converted BVH ones.
+      // A maps the model's (bone, flexion direction) onto the converted BVH ones.
       const Eigen::Vector3d B = R_conv * b_p;
       const Eigen::Vector3d F = R_conv * sum.normalized();
-      const Eigen::Vector3d e3 = d_p.cross(h.flexion_dir).normalized();
+      const Eigen::Vector3d e3 = d_p.cross(ps.flexion).normalized();
       Eigen::Matrix3d fig, cap;
-      fig << d_p, h.flexion_dir.normalized(), e3;
+      fig << d_p, ps.flexion, e3;
       cap << B, F, B.cross(F).normalized();
       P.C = R_conv.transpose() * cap * fig.transpose();
     }
   }
 
-  // Joint groups with their axes, read from the model (relative rotation of the group's
-  // links for a single joint moved).
-  struct Group {
-    std::string parent, child;
-    std::vector<int> joints;
-    std::vector<Eigen::Vector3d> axes;
-    Eigen::Vector3d child_bone;
-  };
-  std::vector<Group> groups;
   RetargetResult result;
   std::vector<bool> mapped(static_cast<std::size_t>(info.nj), false);
-  {
-    const Eigen::VectorXd q0 = info.neutralConfiguration();
-    const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
-    for (const JointGroup& g : humanFigureGroups()) {
-      if (!seg.count(g.parent) || !seg.count(g.child)) continue;
-      Group G{g.parent, g.child, {}, {}, defaultFigureBone(g.child)};
-      for (const RetargetSegment& s : mapping.segments)
-        if (s.link == g.child && s.has_figure_bone) G.child_bone = s.figure_bone;
-      for (const char* name : g.joints) {
-        const int j = info.findJoint(name);
-        if (j < 0)
-          throw std::invalid_argument(std::string("retargetBvh: model has no joint ") + name);
+  for (const Segment& C : segs)
+    for (const int j : C.joints) mapped[static_cast<std::size_t>(j)] = true;
+  for (int j = 0; j < info.nj; ++j)
+    if (!mapped[static_cast<std::size_t>(j)])
+      result.unmapped_joints.push_back(info.joint_names[static_cast<std::size_t>(j)]);
+  if (!result.unmapped_joints.empty() && !mapping.allow_unmapped) {
+    std::string list;
+    for (const std::string& j : result.unmapped_joints) list += (list.empty() ? "" : ", ") + j;
+    throw InputError(mapping.source, 0,
+                     std::to_string(result.unmapped_joints.size()) + " joints of model " +
+                         info.name + " are between no two mapped links: " + list +
+                         " (map their links, or allow_unmapped: true / --allow-unmapped)");
+  }
+
+  // Chain mode: the joints' axes in the parent segment's frame (relative rotation of the
+  // two links with one joint moved).
+  const Eigen::VectorXd q0 = info.neutralConfiguration();
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
+  if (!ik_mode) {
+    for (std::size_t c = 1; c < segs.size(); ++c) {
+      Segment& C = segs[c];
+      if (C.joints.size() > 3)
+        throw InputError(mapping.source, C.line,
+                         "chain mode: " + std::to_string(C.joints.size()) + " joints between \"" +
+                             segs[static_cast<std::size_t>(C.parent)].link + "\" and \"" + C.link +
+                             "\" (at most 3; map a link between them, or use mode: ik)");
+      for (const int j : C.joints) {
         Eigen::VectorXd q = q0;
         q[info.configurationIndex(j)] = 0.3;
         model.setState(q, v0);
         const Eigen::Matrix3d Rrel =
-            model.bodyPose(seg[g.parent].body).linear().transpose() *
-            model.bodyPose(seg[g.child].body).linear();
+            model.bodyPose(segs[static_cast<std::size_t>(C.parent)].body).linear().transpose() *
+            model.bodyPose(C.body).linear();
         const Eigen::AngleAxisd aa(Rrel);
-        Eigen::Vector3d axis = aa.axis() * (aa.angle() / 0.3);
+        const Eigen::Vector3d raw = aa.axis() * (aa.angle() / 0.3);
+        Eigen::Vector3d axis = raw;
         for (int i = 0; i < 3; ++i) axis[i] = std::round(axis[i]);
-        G.joints.push_back(j);
-        G.axes.push_back(axis);
-        mapped[static_cast<std::size_t>(j)] = true;
+        if ((axis - raw).norm() > 1e-6 || std::fabs(axis.norm() - 1.0) > 1e-9)
+          throw InputError(mapping.source, C.line,
+                           "chain mode: joint \"" + info.joint_names[static_cast<std::size_t>(j)] +
+                               "\" does not turn about an axis of link \"" +
+                               segs[static_cast<std::size_t>(C.parent)].link +
+                               "\"'s frame at q = 0 (use mode: ik)");
+        C.axes.push_back(axis);
       }
-      groups.push_back(G);
     }
   }
-  for (int j = 0; j < info.nj; ++j)
-    if (!mapped[static_cast<std::size_t>(j)])
-      result.unmapped_joints.push_back(info.joint_names[static_cast<std::size_t>(j)]);
 
-  // Base position source: mid-hip when both thighs are mapped.
-  int hip_l = -1, hip_r = -1;
-  if (seg.count("l_thigh") && seg.count("r_thigh")) {
-    hip_l = seg["l_thigh"].bvh_joint;
-    hip_r = seg["r_thigh"].bvh_joint;
+  // Base position source: mean of root.position (default: the root joint).
+  std::vector<int> base_joints;
+  for (const std::string& name : mapping.root_position) base_joints.push_back(bvhJoint(name, 0));
+  if (base_joints.empty()) base_joints.push_back(segs[0].bvh_joint);
+  auto basePoint = [&](const std::vector<Eigen::Isometry3d>& X) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const int j : base_joints) sum += X[static_cast<std::size_t>(j)].translation();
+    return Eigen::Vector3d(sum * (1.0 / static_cast<double>(base_joints.size())));
+  };
+  auto limitExcess = [&](int j, double x) {
+    return std::max({0.0, info.q_lower[j] - x, x - info.q_upper[j]});
+  };
+
+  // IK mode: scale, targets and solver settings.
+  std::vector<IkTarget> targets;
+  Eigen::VectorXd posture_weights = Eigen::VectorXd::Zero(info.nv);
+  double scale = 1.0;
+  if (ik_mode) {
+    scale = mapping.ik.scale;
+    if (scale == 0.0) {
+      model.setState(q0, v0);
+      const double z_root = (model.bodyPose(segs[0].body) * mapping.root_offset_xyz).z();
+      std::vector<Eigen::Isometry3d> X_rest(bvh.joints.size(), Eigen::Isometry3d::Identity());
+      for (std::size_t j = 0; j < bvh.joints.size(); ++j) X_rest[j].translation() = rest[j];
+      const double z_root_bvh = (R_conv * basePoint(X_rest)).z();
+      double z_low = std::numeric_limits<double>::infinity();
+      int lowest = -1;
+      for (std::size_t c = 1; c < segs.size(); ++c) {
+        const double z = (model.bodyPose(segs[c].body) * segs[c].spec->offset_xyz).z();
+        if (z < z_low) {
+          z_low = z;
+          lowest = static_cast<int>(c);
+        }
+      }
+      const double d_bvh =
+          lowest < 0 ? 0.0
+                     : z_root_bvh - (R_conv * rest[static_cast<std::size_t>(
+                                                  segs[static_cast<std::size_t>(lowest)].bvh_joint)]).z();
+      if (lowest < 0 || d_bvh < 1e-6 || z_root - z_low < 1e-6)
+        throw InputError(mapping.source, 0,
+                         "ik.scale: cannot size the model against the BVH (no mapped link below "
+                         "the base position in both); set ik.scale");
+      scale = (z_root - z_low) / d_bvh;
+    }
+    result.ik_scale = scale;
+    targets.resize(segs.size());
+    for (std::size_t c = 0; c < segs.size(); ++c) {
+      IkTarget& t = targets[c];
+      t.body = segs[c].body;
+      if (c == 0) {
+        t.p_BP = mapping.root_offset_xyz;
+        t.position_weight = kIkRootWeight;
+        t.orientation_weight = kIkRootWeight;
+      } else {
+        t.p_BP = segs[c].spec->offset_xyz;
+        t.position_weight = segs[c].spec->position_weight;
+        t.orientation_weight = segs[c].spec->orientation_weight;
+      }
+    }
+    for (int j = 0; j < info.nj; ++j)
+      posture_weights[info.velocityIndex(j)] =
+          mapped[static_cast<std::size_t>(j)] ? mapping.ik.posture_weight : kIkUnmappedWeight;
+    result.targets.resize(segs.size());
+    for (std::size_t c = 0; c < segs.size(); ++c) {
+      result.targets[c].link = segs[c].link;
+      result.targets[c].has_position = targets[c].position_weight > 0;
+      result.targets[c].has_orientation = targets[c].orientation_weight > 0;
+    }
   }
-  const int root_joint = seg[mapping.root_link].bvh_joint;
+  IkOptions ik_options;
+  ik_options.max_iterations = mapping.ik.max_iterations;
 
   // Frames.
   std::vector<ReferenceFrame>& frames = result.motion.frames;
   frames.assign(static_cast<std::size_t>(count), ReferenceFrame(info.nq, info.nv));
   std::vector<Eigen::Isometry3d> X;
+  std::vector<Eigen::Matrix3d> R(segs.size());
   Eigen::Quaterniond previous_quat = Eigen::Quaterniond::Identity();
+  Eigen::VectorXd q_ik = q0;
+  std::vector<double> pos_sq(segs.size(), 0.0), rot_sq(segs.size(), 0.0);
   for (int k = 0; k < count; ++k) {
     bvhForwardKinematics(bvh, first + k, X);
     ReferenceFrame& f = frames[static_cast<std::size_t>(k)];
     f.time_s = k * bvh.frame_time_s;
-    std::map<std::string, Eigen::Matrix3d> R;
-    for (const auto& [link, c] : seg)
-      R[link] = R_conv * X[static_cast<std::size_t>(c.bvh_joint)].linear() * c.C;
-    const Eigen::Vector3d p_bvh =
-        hip_l >= 0 ? Eigen::Vector3d(0.5 * (X[static_cast<std::size_t>(hip_l)].translation() +
-                                            X[static_cast<std::size_t>(hip_r)].translation()))
-                   : Eigen::Vector3d(X[static_cast<std::size_t>(root_joint)].translation());
-    f.q.head<3>() = R_conv * p_bvh;
-    Eigen::Quaterniond quat(R[mapping.root_link]);
+    for (std::size_t c = 0; c < segs.size(); ++c)
+      R[c] = R_conv * X[static_cast<std::size_t>(segs[c].bvh_joint)].linear() * segs[c].C;
+    f.q.head<3>() = R_conv * basePoint(X);
+    Eigen::Quaterniond quat(R[0]);
     quat.normalize();
     if (k > 0 && quat.dot(previous_quat) < 0) quat.coeffs() *= -1.0;
     previous_quat = quat;
@@ -518,39 +708,136 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
     f.q[4] = quat.x();
     f.q[5] = quat.y();
     f.q[6] = quat.z();
-    for (const Group& g : groups) {
-      const Eigen::Matrix3d Rrel = R[g.parent].transpose() * R[g.child];
+
+    if (ik_mode) {
+      for (std::size_t c = 0; c < segs.size(); ++c) {
+        IkTarget& t = targets[c];
+        if (c == 0) {
+          t.p_WP = scale * f.q.head<3>();
+          t.R_WB = R[0];
+        } else {
+          t.p_WP = scale * (R_conv * X[static_cast<std::size_t>(segs[c].bvh_joint)].translation());
+          t.R_WB = R[c] * segs[c].spec->R_offset;
+        }
+      }
+      if (k == 0) {
+        q_ik = q0;
+        q_ik.head<3>() = targets[0].p_WP - R[0] * targets[0].p_BP;
+        q_ik.segment<4>(3) = f.q.segment<4>(3);
+      }
+      const IkResult ik = solvePoseIk(model, targets, q0, posture_weights, ik_options, q_ik);
+      (void)ik;
+      for (std::size_t c = 0; c < segs.size(); ++c) {
+        double ep = 0.0, er = 0.0;
+        ikTargetError(model, targets[c], ep, er);
+        TargetReport& r = result.targets[c];
+        pos_sq[c] += ep * ep;
+        rot_sq[c] += er * er;
+        r.position_max_m = std::max(r.position_max_m, ep);
+        r.orientation_max_rad = std::max(r.orientation_max_rad, er);
+      }
+      Eigen::Quaterniond qb(q_ik[3], q_ik[4], q_ik[5], q_ik[6]);
+      if (k > 0 && qb.dot(previous_quat) < 0) q_ik.segment<4>(3) *= -1.0;
+      previous_quat = Eigen::Quaterniond(q_ik[3], q_ik[4], q_ik[5], q_ik[6]);
+      f.q = q_ik;
+      continue;
+    }
+
+    for (std::size_t c = 1; c < segs.size(); ++c) {
+      const Segment& g = segs[c];
+      if (g.joints.empty()) continue;
+      const Eigen::Matrix3d Rrel = R[static_cast<std::size_t>(g.parent)].transpose() * R[c];
       std::vector<double> angles = decomposeRotation(Rrel, g.axes, 2);
       if (g.axes.size() == 2) {
         // Of the two placements of the missing axis, keep the one that reproduces the
         // child's bone direction better.
         const std::vector<double> middle = decomposeRotation(Rrel, g.axes, 1);
+        const Eigen::Vector3d& bone = g.spec->figure_bone;
         auto error = [&](const std::vector<double>& a) {
           const Eigen::Matrix3d Rc = Eigen::AngleAxisd(a[0], g.axes[0]).toRotationMatrix() *
                                      Eigen::AngleAxisd(a[1], g.axes[1]).toRotationMatrix();
-          return (Rc * g.child_bone - Rrel * g.child_bone).norm();
+          return (Rc * bone - Rrel * bone).norm();
         };
         if (error(middle) < error(angles)) angles = middle;
       }
-      if (angles.size() == 3 && k > 0) {
-        // The other Tait–Bryan solution (α + π, π − β, γ + π): take the one nearer to the
-        // previous frame (matters near the middle axis' ±90°).
-        const std::vector<double> alt = {wrapAngle(angles[0] + M_PI),
-                                         wrapAngle(M_PI * std::copysign(1.0, g.axes[1].sum()) -
-                                                   angles[1]),
-                                         wrapAngle(angles[2] + M_PI)};
-        double d_main = 0.0, d_alt = 0.0;
-        for (std::size_t a = 0; a < 3; ++a) {
+      // Of the equivalent angle sets — the other Tait–Bryan solution (α + π, π − β, γ + π)
+      // and each angle ± 2π — the one nearest to the previous frame; when it leaves the
+      // limits or jumps, the other inside the limits without a jump, else the limited fit
+      // from the previous frame (keeps a shoulder continuous and limited through its Euler
+      // singularity, and a joint past ±π continuous).
+      auto choose = [&](std::vector<double>& set, double& excess, double& distance) {
+        excess = distance = 0.0;
+        for (std::size_t a = 0; a < set.size(); ++a) {
+          const int j = g.joints[a];
           const double prev =
-              frames[static_cast<std::size_t>(k - 1)].q[info.configurationIndex(g.joints[a])];
-          d_main += std::pow(wrapAngle(angles[a] - prev), 2);
-          d_alt += std::pow(wrapAngle(alt[a] - prev), 2);
+              k > 0 ? frames[static_cast<std::size_t>(k - 1)].q[info.configurationIndex(j)] : set[a];
+          double best = set[a];
+          for (const double shift : {-2.0 * M_PI, 2.0 * M_PI}) {
+            const double y = set[a] + shift;
+            const double ey = limitExcess(j, y), eb = limitExcess(j, best);
+            if (ey < eb - 1e-12 || (ey <= eb + 1e-12 && std::fabs(y - prev) < std::fabs(best - prev)))
+              best = y;
+          }
+          set[a] = best;
+          excess += limitExcess(j, best);
+          distance += (best - prev) * (best - prev);
         }
-        if (d_alt < d_main) angles = alt;
+      };
+      double x_main = 0.0, d_main = 0.0;
+      choose(angles, x_main, d_main);
+      if (angles.size() == 3) {
+        std::vector<double> alt = {wrapAngle(angles[0] + M_PI),
+                                   wrapAngle(M_PI * std::copysign(1.0, g.axes[1].sum()) - angles[1]),
+                                   wrapAngle(angles[2] + M_PI)};
+        double x_alt = 0.0, d_alt = 0.0;
+        choose(alt, x_alt, d_alt);
+        const bool alt_nearer = k > 0 && d_alt < d_main;
+        std::vector<double>& nearer = alt_nearer ? alt : angles;
+        std::vector<double>& other = alt_nearer ? angles : alt;
+        const double x_nearer = alt_nearer ? x_alt : x_main, x_other = alt_nearer ? x_main : x_alt;
+        auto jump = [&](const std::vector<double>& set) {
+          double m = 0.0;
+          for (std::size_t a = 0; a < 3; ++a)
+            m = std::max(m, std::fabs(set[a] - frames[static_cast<std::size_t>(k - 1)]
+                                                   .q[info.configurationIndex(g.joints[a])]));
+          return m;
+        };
+        std::vector<double> chosen = nearer;
+        if (x_nearer > 0 || (k > 0 && jump(nearer) > kMaxBranchJumpRad)) {
+          if (k == 0) {
+            if (x_other < x_nearer) chosen = other;
+          } else if (x_nearer == 0 && jump(nearer) <= kMaxBranchJumpRad) {
+            chosen = nearer;
+          } else if (x_other == 0 && jump(other) <= kMaxBranchJumpRad) {
+            chosen = other;
+          } else {
+            // Both outside the limits, or the other branch only by a jump (near the
+            // singularity, where the two outer angles trade off): the angles inside the
+            // limits nearest in rotation, from the previous frame's, so that the joint
+            // stays continuous and inside its limits.
+            std::vector<double> theta(3);
+            for (std::size_t a = 0; a < 3; ++a) {
+              const int j = g.joints[a];
+              theta[a] = std::clamp(frames[static_cast<std::size_t>(k - 1)].q[info.configurationIndex(j)],
+                                    info.q_lower[j], info.q_upper[j]);
+            }
+            limitedRotationFit(Rrel, g.axes, g.joints, info, theta);
+            chosen = theta;
+          }
+        }
+        angles = chosen;
       }
       for (std::size_t a = 0; a < angles.size(); ++a)
         f.q[info.configurationIndex(g.joints[a])] = angles[a];
     }
+    // Unmapped joints at their neutral value.
+    for (int j = 0; j < info.nj; ++j)
+      if (!mapped[static_cast<std::size_t>(j)])
+        f.q[info.configurationIndex(j)] = q0[info.configurationIndex(j)];
+  }
+  for (std::size_t c = 0; c < result.targets.size(); ++c) {
+    result.targets[c].position_rms_m = std::sqrt(pos_sq[c] / count);
+    result.targets[c].orientation_rms_rad = std::sqrt(rot_sq[c] / count);
   }
 
   // Limit report (before any clamping).
@@ -561,11 +848,13 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
     const int qi = info.configurationIndex(j);
     r.min_rad = std::numeric_limits<double>::infinity();
     r.max_rad = -std::numeric_limits<double>::infinity();
+    double sum_sq = 0.0;
     for (int k = 0; k < count; ++k) {
       const double x = frames[static_cast<std::size_t>(k)].q[qi];
       r.min_rad = std::min(r.min_rad, x);
       r.max_rad = std::max(r.max_rad, x);
-      const double excess = std::max(info.q_lower[j] - x, x - info.q_upper[j]);
+      const double excess = limitExcess(j, x);
+      sum_sq += excess * excess;
       if (excess > 0) {
         ++r.frames_outside;
         if (excess > r.worst_excess_rad) {
@@ -575,6 +864,7 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
       }
     }
     r.fraction_outside = static_cast<double>(r.frames_outside) / count;
+    r.excess_rms_rad = std::sqrt(sum_sq / count);
   }
   if (mapping.clamp_to_limits) {
     for (ReferenceFrame& f : frames)
@@ -653,7 +943,35 @@ std::string formatLimitReport(const RetargetResult& result) {
                   worst_joint.c_str());
     out << line;
   }
+  double sum_sq = 0.0;
+  for (const JointLimitReport& r : result.limits) sum_sq += r.excess_rms_rad * r.excess_rms_rad;
+  std::snprintf(line, sizeof line, "; excess %.4f rad RMS over all joints",
+                result.limits.empty() ? 0.0 : std::sqrt(sum_sq / static_cast<double>(result.limits.size())));
+  out << line;
   out << (result.clamped ? "; values clamped into the limits\n" : "; values NOT clamped\n");
+  return out.str();
+}
+
+std::string formatTargetReport(const RetargetResult& result) {
+  std::ostringstream out;
+  char line[256];
+  std::snprintf(line, sizeof line, "IK targets (scale %.4f): position RMS / max (mm), orientation RMS / max (deg)\n",
+                result.ik_scale);
+  out << line;
+  for (const TargetReport& t : result.targets) {
+    std::string pos = "      -", rot = "      -";
+    if (t.has_position) {
+      std::snprintf(line, sizeof line, "%7.1f / %7.1f", 1e3 * t.position_rms_m, 1e3 * t.position_max_m);
+      pos = line;
+    }
+    if (t.has_orientation) {
+      std::snprintf(line, sizeof line, "%6.1f / %6.1f", t.orientation_rms_rad * 180.0 / M_PI,
+                    t.orientation_max_rad * 180.0 / M_PI);
+      rot = line;
+    }
+    std::snprintf(line, sizeof line, "  %-24s %-17s %s\n", t.link.c_str(), pos.c_str(), rot.c_str());
+    out << line;
+  }
   return out.str();
 }
 

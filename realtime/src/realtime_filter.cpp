@@ -31,6 +31,9 @@ bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s) {
     return false;
   }
   ++counters_.frames_accepted;
+  // Look-ahead of the QP mode's balance layer: the frames between the sampled time (the
+  // reference delay behind) and the newest are the preview window.
+  filter_.previewFrame(frame);
   last_frame_local_s_ = now_s;
   stale_ = false;
   return true;

@@ -1,8 +1,11 @@
 // Contact candidates from each backend's collision engine.
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/test_support.hpp"
 
@@ -122,6 +125,40 @@ TEST_P(Contacts, ContactListCountsOverflowInsteadOfGrowing) {
   EXPECT_EQ(small.size(), 2u);
   EXPECT_EQ(small.capacity(), 2u);
   EXPECT_GE(small.overflow(), 1u);  // the truncation is reported, not hidden
+}
+
+TEST_P(Contacts, MeshSolesStandAtTheirHullsBottomVertices) {
+  // The biped's soles are a box STL and an OBJ frustum (package://): standing 0.1 mm deep
+  // on level ground, each touches at the four bottom vertices of its convex hull.
+  const urdf::RobotDescription robot =
+      urdf::loadUrdfFile(test::testModelPath("mesh_sole_biped.urdf"), {{test::testModelPath("")}, {}});
+  auto model = test::makeModel(GetParam(), robot, ModelOptions{});
+  Eigen::VectorXd q = model->info().neutralConfiguration();
+  q[2] = standingBaseHeight(*model, q) - 1e-4;
+  model->setState(q, Eigen::VectorXd::Zero(model->nv()));
+  ContactList contacts;
+  model->detectContacts(contacts);
+  ASSERT_EQ(contacts.size(), 8u);
+  for (const char* foot : {"l_foot", "r_foot"}) {
+    const int body = model->info().findBody(foot);
+    const urdf::CollisionShapeDesc& sole =
+        robot.links[static_cast<std::size_t>(body)].collisions.at(0);
+    std::vector<Eigen::Vector3d> bottom;  // hull vertices with the lowest z, in the link frame
+    for (const auto& v : sole.hull.vertices_S)
+      if (v.z() < -0.0099) bottom.push_back(sole.X_LS * v);
+    ASSERT_EQ(bottom.size(), 4u);
+    int found = 0;
+    for (const ContactCandidate& c : contacts) {
+      if (c.body != body) continue;
+      ++found;
+      EXPECT_NEAR(c.depth_m, 1e-4, 1e-7);
+      EXPECT_LT((c.n_W - Eigen::Vector3d::UnitZ()).norm(), 1e-9);
+      double nearest = 1.0;
+      for (const auto& v : bottom) nearest = std::min(nearest, (c.p_BC - v).norm());
+      EXPECT_LT(nearest, 1e-6) << foot << " contact at " << c.p_BC.transpose();
+    }
+    EXPECT_EQ(found, 4) << foot;
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(AllBackends, Contacts, testing::ValuesIn(test::allBackends()),

@@ -51,7 +51,17 @@ std::vector<Case> cases() {
   // The chain's last link; its sphere sits at (0.03, 0, 0).
   const std::vector<TrackedPoint> chain = {{"hand", "hand", Eigen::Vector3d(0.03, 0.0, 0.0)},
                                            {"hand", "slider", Eigen::Vector3d(0.05, 0.02, 0.01)}};
+  // Points on the mimic followers (one inside its leader's subtree) and the prismatic one.
+  const std::vector<TrackedPoint> gripper = {{"hand", "left_tip", Eigen::Vector3d(0.01, 0.0, 0.02)},
+                                             {"hand", "right_finger", Eigen::Vector3d(0.0, 0.01, 0.05)},
+                                             {"hand", "pusher", Eigen::Vector3d(0.0, 0.0, 0.01)}};
+  // The mesh soles' centres (bottom face of the hull).
+  const std::vector<TrackedPoint> biped = {{"foot", "l_foot", Eigen::Vector3d(0.03, 0.0, -0.06)},
+                                           {"foot", "r_foot", Eigen::Vector3d(0.03, 0.0, -0.06)}};
   return {{"human_figure_floating", "models/human_figure.urdf", true, figure},
+          {"mimic_gripper_fixed", "tests/models/mimic_gripper.urdf", false, gripper},
+          {"mimic_gripper_floating", "tests/models/mimic_gripper.urdf", true, gripper},
+          {"mesh_sole_biped_floating", "tests/models/mesh_sole_biped.urdf", true, biped},
           {"floating_chain_floating", "tests/models/floating_chain.urdf", true, chain},
           {"floating_chain_fixed", "tests/models/floating_chain.urdf", false, chain}};
 }
@@ -60,7 +70,8 @@ class CrossBackend : public testing::TestWithParam<Case> {};
 
 TEST_P(CrossBackend, DartAndOdeAgreeOnRandomStates) {
   const Case& c = GetParam();
-  const auto robot = urdf::loadUrdfFile(test::sourcePath(c.model));
+  const auto robot = urdf::loadUrdfFile(test::sourcePath(c.model),
+                                        {{test::testModelPath("")}, {}});  // package:// meshes
   ModelOptions options;
   options.floating_base = c.floating_base;
   auto dart = test::makeModel("dart", robot, options);

@@ -38,7 +38,8 @@ std::string caseName(const testing::TestParamInfo<Case>& info) {
 class DynamicsConsistency : public testing::TestWithParam<Case> {
  protected:
   void SetUp() override {
-    robot_ = urdf::loadUrdfFile(test::sourcePath(GetParam().model));
+    robot_ = urdf::loadUrdfFile(test::sourcePath(GetParam().model),
+                                {{test::testModelPath("")}, {}});  // package:// meshes
     ModelOptions options;
     options.floating_base = GetParam().floating_base;
     model_ = test::makeModel(GetParam().backend, robot_, options);
@@ -193,6 +194,10 @@ INSTANTIATE_TEST_SUITE_P(
         cases.push_back({backend, "tests/models/double_pendulum.urdf", false});
         cases.push_back({backend, "tests/models/quadruped.urdf", true});
         cases.push_back({backend, "tests/models/arm7.urdf", false});
+        // Mimic followers (reduced coordinates), massless hip links, mesh soles.
+        cases.push_back({backend, "tests/models/mimic_gripper.urdf", false});
+        cases.push_back({backend, "tests/models/mimic_gripper.urdf", true});
+        cases.push_back({backend, "tests/models/mesh_sole_biped.urdf", true});
       }
       return cases;
     }()),

@@ -5,6 +5,7 @@
 // operator new alone never saw. The model is wrapped in a forwarding decorator that pauses
 // counting inside backend calls, so the count is the core's own; what the backend (DART)
 // allocates inside its calls is counted separately and reported as a test property.
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdlib>
@@ -154,9 +155,19 @@ TEST(Allocation, QpModeSteadyStateTickAllocatesNothingInTheCore) {
   std::uint64_t iterations_before = filter.output().counters.qp_iterations;
   resetCounts();
   g_counting = true;
-  for (std::size_t k = 50; k < frames.size(); ++k) seen |= filter.step(frames[k]).status;
+  // With the balance layer's look-ahead fed as on-line (a frame ahead every tick).
+  std::size_t previewed = 50;
+  int most_preview_samples = 0;
+  for (std::size_t k = 50; k < frames.size(); ++k) {
+    while (previewed < frames.size() && previewed < k + 50) filter.previewFrame(frames[previewed++]);
+    seen |= filter.step(frames[k]).status;
+    most_preview_samples = std::max(most_preview_samples, filter.balance()->preview_samples);
+  }
   g_counting = false;
   const long ticks = static_cast<long>(frames.size()) - 50;
+  ASSERT_NE(filter.balance(), nullptr);
+  EXPECT_TRUE(filter.balance()->active) << "the balance tasks ran";
+  EXPECT_GT(most_preview_samples, 10) << "the look-ahead ran";
   EXPECT_EQ(filter.output().num_contacts, 2);
   EXPECT_EQ(seen & (kStatusQpFallback | kStatusQpRelaxed), 0u) << "the plain QP path ran";
   EXPECT_GT(filter.output().counters.qp_iterations, iterations_before) << "the solver iterated";

@@ -158,6 +158,17 @@ TEST_F(FilterOnHumanFigure, InvalidReferenceFramesAreFlaggedAndHeld) {
   EXPECT_FALSE(filter.step((*sway_)[52]).status & kStatusReferenceInvalid);
 }
 
+// task.body not configured (the default): the trunk is chosen from the model's structure.
+TEST(Filter, ChoosesTheTaskBodyFromTheModel) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  FilterOptions options;
+  ASSERT_TRUE(options.task.body.empty());
+  const DynamicsFilter filter(*model, options);
+  EXPECT_EQ(filter.taskBody(), model->info().findBody("torso"));
+  options.task.body = "head";
+  EXPECT_EQ(DynamicsFilter(*model, options).taskBody(), model->info().findBody("head"));
+}
+
 TEST(Filter, RejectsAnUnknownTaskBody) {
   auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   FilterOptions options;

@@ -66,6 +66,21 @@ void expectSameFilterOptions(const FilterOptions& a, const FilterOptions& b) {
   EXPECT_EQ(a.divergence.max_joint_error_rad, b.divergence.max_joint_error_rad);
   EXPECT_EQ(a.divergence.max_base_residual_rel, b.divergence.max_base_residual_rel);
   EXPECT_EQ(a.divergence.max_degraded_ticks, b.divergence.max_degraded_ticks);
+  EXPECT_EQ(a.balance.enabled, b.balance.enabled);
+  EXPECT_EQ(a.balance.com_weight, b.balance.com_weight);
+  EXPECT_EQ(a.balance.dcm_gain, b.balance.dcm_gain);
+  EXPECT_EQ(a.balance.height_kp, b.balance.height_kp);
+  EXPECT_EQ(a.balance.height_kd, b.balance.height_kd);
+  EXPECT_EQ(a.balance.angular_momentum_damping, b.balance.angular_momentum_damping);
+  EXPECT_EQ(a.balance.angular_momentum_weight, b.balance.angular_momentum_weight);
+  EXPECT_EQ(a.balance.preview_s, b.balance.preview_s);
+  EXPECT_EQ(a.balance.preview_capacity, b.balance.preview_capacity);
+  EXPECT_EQ(a.balance.stance_height_m, b.balance.stance_height_m);
+  EXPECT_EQ(a.balance.stance_speed_mps, b.balance.stance_speed_mps);
+  EXPECT_EQ(a.balance.sole_weight, b.balance.sole_weight);
+  EXPECT_EQ(a.balance.sole_kp, b.balance.sole_kp);
+  EXPECT_EQ(a.balance.sole_kd, b.balance.sole_kd);
+  EXPECT_EQ(a.balance.sole_margin_m, b.balance.sole_margin_m);
 }
 
 void expectSameEnvironment(const Environment& a, const Environment& b) {
@@ -108,7 +123,7 @@ TEST(ConfigFile, ShippedDefaultFileListsEveryKeyOnceWithAComment) {
   const std::map<std::string, int> expected{
       {"dt_s", 1}, {"feedback", 1}, {"base_linear_kp", 1}, {"base_linear_kd", 1},
       {"base_angular_kp", 1}, {"base_angular_kd", 1}, {"joint_kp", 1}, {"joint_kd", 1},
-      {"task", 1}, {"enabled", 1}, {"body", 1}, {"p_BP", 1}, {"kp_linear", 1},
+      {"task", 1}, {"enabled", 2}, {"body", 1}, {"p_BP", 1}, {"kp_linear", 1},
       {"kd_linear", 1}, {"kp_angular", 1}, {"kd_angular", 1}, {"joint_weight", 1},
       {"as_constraint_rows", 1}, {"initial_penetration_tolerance_m", 1},
       {"contacts", 1}, {"max_links", 1}, {"stabilization_kp", 1}, {"stabilization_kd", 1},
@@ -121,7 +136,11 @@ TEST(ConfigFile, ShippedDefaultFileListsEveryKeyOnceWithAComment) {
       {"enforce_torque_limits", 1}, {"enforce_joint_limits", 1}, {"eps_abs", 1},
       {"max_iterations", 1}, {"warm_start", 1}, {"divergence", 1}, {"max_base_error_m", 1},
       {"max_base_rotation_rad", 1}, {"max_joint_error_rad", 1}, {"max_base_residual_rel", 1},
-      {"max_degraded_ticks", 1},
+      {"max_degraded_ticks", 1}, {"balance", 1}, {"com_weight", 1}, {"dcm_gain", 1},
+      {"height_kp", 1}, {"height_kd", 1}, {"angular_momentum_damping", 1},
+      {"angular_momentum_weight", 1}, {"preview_s", 1}, {"preview_capacity", 1},
+      {"stance_height_m", 1}, {"stance_speed_mps", 1}, {"sole_weight", 1}, {"sole_kp", 1},
+      {"sole_kd", 1}, {"sole_margin_m", 1},
       {"ground", 1}, {"slope_deg", 1}, {"heading_deg", 1}, {"height_m", 1}, {"friction", 1},
       {"boxes", 1}};
   EXPECT_EQ(count, expected);

@@ -310,16 +310,16 @@ constexpr const char* kSyntheticMapping = R"(length_scale: 1
 skip_frames: 1
 up_axis: +y
 bvh_forward: +z
-root: {bvh: Hips, link: pelvis}
+root: {bvh: Hips, link: pelvis, position: [LUp, RUp]}
 segments:
-  - {link: torso, bvh: Chest}
-  - {link: head, bvh: Head}
+  - {link: torso, bvh: Chest, figure_bone: [0, 0, 1]}
+  - {link: head, bvh: Head, figure_bone: [0, 0, 1]}
   - {link: l_thigh, bvh: LUp, hinge_twist: false}
   - {link: l_shank, bvh: LLeg}
-  - {link: l_foot, bvh: LFoot}
+  - {link: l_foot, bvh: LFoot, figure_bone: [1, 0, 0]}
   - {link: r_thigh, bvh: RUp, hinge_twist: false}
   - {link: r_shank, bvh: RLeg}
-  - {link: r_foot, bvh: RFoot}
+  - {link: r_foot, bvh: RFoot, figure_bone: [1, 0, 0]}
   - {link: l_upper_arm, bvh: LArm, hinge_twist: false}
   - {link: l_forearm, bvh: LFore}
   - {link: l_hand, bvh: LHand}

@@ -1,3 +1,5 @@
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <string>
 
@@ -99,9 +101,43 @@ TEST(UrdfLoader, FloatingJointIsUnsupportedNotUnknown) {
   expectModelError(arm("floating"), 6, "joint \"shoulder\"", "unsupported joint type");
 }
 
-TEST(UrdfLoader, ZeroMassOnAMovingJointIsRejectedForDynamics) {
-  expectModelError(arm("revolute", "0"), 12, "link \"upper\"",
-                   "zero mass on a link moved by joint \"shoulder\"", true);
+TEST(UrdfLoader, AJointThatMovesNoMassIsRejectedByName) {
+  // The massless leaf makes A singular: the error names the joint, its line and why.
+  expectModelError(arm("revolute", "0"), 6, "joint \"shoulder\"",
+                   "moves no mass or inertia about its axis: link \"upper\"", true);
+  expectModelError(arm("prismatic", "0"), 6, "joint \"shoulder\"", "moves no mass", true);
+}
+
+TEST(UrdfLoader, AMasslessLinkCarryingMassIsAccepted) {
+  // The shoulder's own link is massless; a massive hand welded beyond it moves.
+  const std::string chain = R"(  <joint name="wrist" type="fixed">
+    <parent link="upper"/><child link="hand"/><origin xyz="0 0.3 0"/>
+  </joint>
+  <link name="hand">
+    <inertial><mass value="2"/><inertia ixx="0.01" iyy="0.02" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+)";
+  const RobotDescription robot = loadUrdfString(arm("revolute", "0", chain), "arm.urdf");
+  EXPECT_NO_THROW(validateForDynamics(robot, true));
+}
+
+TEST(UrdfLoader, MasslessIntermediateLinksOfAThreeDofHipAreAccepted) {
+  const RobotDescription robot = loadUrdfFile(test::testModelPath("mesh_sole_biped.urdf"),
+                                              {{test::testModelPath("")}, {}});
+  EXPECT_EQ(robot.links[static_cast<std::size_t>(robot.findLink("l_hip_yaw_link"))].inertial.mass_kg, 0.0);
+  EXPECT_NO_THROW(validateForDynamics(robot, true));
+  // Locking the thigh's pitch joint does not change that; dropping the thigh's and
+  // everything below's mass does, and names the innermost hip joint that moves nothing.
+  RobotDescription massless = robot;
+  for (const char* name : {"l_thigh", "l_shin", "l_foot"})
+    massless.links[static_cast<std::size_t>(massless.findLink(name))].inertial = InertialDesc{};
+  try {
+    validateForDynamics(massless, true);
+    FAIL() << "expected a ModelError";
+  } catch (const ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("joint \"l_hip_yaw\""), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("moves no mass"), std::string::npos) << e.what();
+  }
 }
 
 TEST(UrdfLoader, ZeroMassOnAFixedJointIsAccepted) {
@@ -117,12 +153,148 @@ TEST(UrdfLoader, NonPhysicalInertiaIsRejected) {
   expectModelError(xml, 12, "link \"upper\"", "triangle inequality", true);
 }
 
-TEST(UrdfLoader, UnknownElementIsRejected) {
-  expectModelError(arm("revolute", "1", "  <lnk name=\"typo\"/>\n"), 15, "<robot>",
-                   "unknown element <lnk>");
+TEST(UrdfLoader, ElementsThatDoNotChangeTheDynamicsAreIgnoredAndListed) {
+  const RobotDescription robot = loadUrdfFile(test::testModelPath("mimic_gripper.urdf"));
+  const auto listed = [&](const std::string& key) {
+    for (const auto& e : robot.ignored_elements)
+      if (e.rfind(key, 0) == 0) return e;
+    return std::string();
+  };
+  EXPECT_NE(listed("<robot><gazebo> x2"), "");
+  EXPECT_NE(listed("<robot><transmission> x1"), "");
+  EXPECT_NE(listed("<robot><sensor> x1"), "");
+  EXPECT_NE(listed("<link><sensor> x1"), "");
+  EXPECT_NE(listed("<link><visual> x2"), "");
+  EXPECT_NE(listed("<joint><dynamics> x1"), "");
+  EXPECT_NE(listed("<robot><material>").find("mimic_gripper.urdf:7)"), std::string::npos)
+      << listed("<robot><material>");
+  // A misspelt element is listed too (not silently dropped).
+  const RobotDescription typo = loadUrdfString(arm("revolute", "1", "  <lnk name=\"typo\"/>\n"), "arm.urdf");
+  ASSERT_EQ(typo.ignored_elements.size(), 1u);
+  EXPECT_EQ(typo.ignored_elements[0], "<robot><lnk> x1 (first at arm.urdf:15)");
+}
+
+TEST(UrdfLoader, MimicJointsFollowTheirFirstLeaderAndCarryNoCoordinate) {
+  const RobotDescription robot = loadUrdfFile(test::testModelPath("mimic_gripper.urdf"));
+  ASSERT_EQ(robot.moving_joints.size(), 2u);  // wrist, left finger
+  ASSERT_EQ(robot.mimic_joints.size(), 3u);
+  const int leader = robot.findJoint("left_finger_joint");
+  const JointDesc& right = robot.joints[static_cast<std::size_t>(robot.findJoint("right_finger_joint"))];
+  EXPECT_EQ(right.mimic_leader, leader);
+  EXPECT_EQ(right.coordinate, -1);
+  EXPECT_DOUBLE_EQ(right.mimic_multiplier, -0.9);
+  EXPECT_DOUBLE_EQ(right.mimic_offset, 0.05);
+  // left_tip mimics right_finger: 1.5 (−0.9 q + 0.05) − 0.02 = −1.35 q + 0.055.
+  const JointDesc& tip = robot.joints[static_cast<std::size_t>(robot.findJoint("left_tip_joint"))];
+  EXPECT_EQ(tip.mimic_leader, leader);
+  EXPECT_NEAR(tip.mimic_multiplier, -1.35, 1e-15);
+  EXPECT_NEAR(tip.mimic_offset, 0.055, 1e-15);
+}
+
+TEST(UrdfLoader, MimicOfAnUnknownJointNamesTheLine) {
   std::string xml = arm();
-  xml.replace(xml.find("<axis"), 5, "<axes");
-  expectModelError(xml, 9, "joint \"shoulder\"", "unknown element <axes>");
+  xml.replace(xml.find("<limit"), 0, "<mimic joint=\"elbow\"/>\n    ");
+  expectModelError(xml, 10, "joint \"shoulder\" <mimic>", "leader joint \"elbow\" is not defined");
+}
+
+TEST(UrdfLoader, LockedJointsAreWeldedAtTheirPosition) {
+  UrdfLoadOptions options;
+  options.lock_joints = {"left_finger_joint=0.3", "wr*"};
+  const RobotDescription robot = loadUrdfFile(test::testModelPath("mimic_gripper.urdf"), options);
+  EXPECT_TRUE(robot.moving_joints.empty());
+  EXPECT_TRUE(robot.mimic_joints.empty());  // followers of a locked leader are locked too
+  // The follower is welded at −0.9 · 0.3 + 0.05 about its axis (y).
+  const RobotDescription free = loadUrdfFile(test::testModelPath("mimic_gripper.urdf"));
+  const int right = robot.findJoint("right_finger_joint");
+  const Eigen::Isometry3d expected =
+      free.joints[static_cast<std::size_t>(right)].X_PJ * Eigen::AngleAxisd(-0.9 * 0.3 + 0.05, Eigen::Vector3d::UnitY());
+  EXPECT_TRUE(robot.joints[static_cast<std::size_t>(right)].X_PJ.isApprox(expected, 1e-14));
+  EXPECT_EQ(robot.joints[static_cast<std::size_t>(right)].type, JointType::kFixed);
+  options.lock_joints = {"no_such_*"};
+  EXPECT_THROW(loadUrdfFile(test::testModelPath("mimic_gripper.urdf"), options), ModelError);
+  options.lock_joints = {"right_finger_joint"};  // a follower without its leader
+  EXPECT_THROW(loadUrdfFile(test::testModelPath("mimic_gripper.urdf"), options), ModelError);
+  options.lock_joints = {"wrist=3"};  // outside [−2, 2]
+  EXPECT_THROW(loadUrdfFile(test::testModelPath("mimic_gripper.urdf"), options), ModelError);
+}
+
+TEST(UrdfLoader, MeshCollisionsBecomeConvexHulls) {
+  const RobotDescription robot = loadUrdfFile(test::testModelPath("mesh_sole_biped.urdf"),
+                                              {{test::testModelPath("")}, {}});
+  const auto& left = robot.links[static_cast<std::size_t>(robot.findLink("l_foot"))].collisions;
+  ASSERT_EQ(left.size(), 1u);
+  EXPECT_EQ(left[0].kind, ShapeKind::kConvexHull);
+  EXPECT_EQ(left[0].hull.vertices_S.size(), 8u);  // the box STL
+  EXPECT_EQ(left[0].hull.faces.size(), 6u);       // coplanar triangles merged
+  const auto& right = robot.links[static_cast<std::size_t>(robot.findLink("r_foot"))].collisions;
+  ASSERT_EQ(right.size(), 1u);
+  EXPECT_EQ(right[0].hull.vertices_S.size(), 8u);  // the frustum OBJ without its inner vertex
+  // Every vertex is on or inside every face plane, and on at least three of them.
+  for (const auto* hull : {&left[0].hull, &right[0].hull}) {
+    for (const auto& v : hull->vertices_S) {
+      int on = 0;
+      for (const auto& p : hull->planes_S) {
+        const double d = p.head<3>().dot(v) - p[3];
+        EXPECT_LE(d, 1e-12);
+        on += std::abs(d) < 1e-12;
+      }
+      EXPECT_GE(on, 3);
+    }
+  }
+}
+
+TEST(UrdfLoader, MeshErrorsNameTheFileAndTheLine) {
+  const std::string base = test::testModelPath("");
+  const std::string link = R"(  <joint name="foot_joint" type="fixed"><parent link="upper"/><child link="foot"/></joint>
+  <link name="foot">
+    <collision><geometry><mesh filename="{MESH}"{SCALE}/></geometry></collision>
+  </link>
+)";
+  auto withMesh = [&](const std::string& mesh, const std::string& scale) {
+    std::string extra = link;
+    extra.replace(extra.find("{MESH}"), 6, mesh);
+    extra.replace(extra.find("{SCALE}"), 7, scale);
+    return arm("revolute", "1", extra);
+  };
+  auto expectMeshError = [&](const std::string& xml, const std::string& reason,
+                             const UrdfLoadOptions& options) {
+    try {
+      loadUrdfString(xml, "arm.urdf", options, base);
+      FAIL() << "expected a ModelError";
+    } catch (const ModelError& e) {
+      EXPECT_EQ(e.line(), 17) << e.what();
+      EXPECT_NE(std::string(e.what()).find("link \"foot\" <mesh>"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(reason), std::string::npos) << e.what();
+    }
+  };
+  expectMeshError(withMesh("meshes/missing.stl", ""), "missing.stl\" not found", {});
+  expectMeshError(withMesh("package://no_such_package/sole.stl", ""),
+                  "package \"no_such_package\"", {{base}, {}});
+  expectMeshError(withMesh("package://dynfilter_test_meshes/meshes/box_sole.stl", " scale=\"1 0 1\""),
+                  "non-zero", {{base}, {}});
+  // A mirrored scale is baked into the hull (outward planes kept), never handed to DART.
+  const RobotDescription mirrored = loadUrdfString(
+      withMesh("package:///dynfilter_test_meshes/meshes/frustum_sole.obj", " scale=\"1 1 -1\""),
+      "arm.urdf", {{base}, {}});
+  const auto& flipped = mirrored.links[2].collisions[0].hull;
+  for (const auto& v : flipped.vertices_S)
+    for (const auto& p : flipped.planes_S) EXPECT_LE(p.head<3>().dot(v) - p[3], 1e-12);
+  double top = -1.0;
+  for (const auto& v : flipped.vertices_S) top = std::max(top, v.z());
+  EXPECT_NEAR(top, 0.01, 1e-8);  // the wide face (z = −0.01) is now on top
+  // Relative and file:// paths resolve; the scale is applied.
+  const RobotDescription relative = loadUrdfString(
+      withMesh("dynfilter_test_meshes/meshes/box_sole.stl", " scale=\"2 1 0.5\""), "arm.urdf", {}, base);
+  const auto& hull = relative.links[2].collisions[0].hull;
+  double max_x = 0.0, max_z = 0.0;
+  for (const auto& v : hull.vertices_S) {
+    max_x = std::max(max_x, v.x());
+    max_z = std::max(max_z, v.z());
+  }
+  EXPECT_NEAR(max_x, 0.2, 1e-7);  // assimp reads single precision
+  EXPECT_NEAR(max_z, 0.005, 1e-8);
+  EXPECT_NO_THROW(loadUrdfString(
+      withMesh("file://" + base + "/dynfilter_test_meshes/meshes/frustum_sole.obj", ""), "arm.urdf"));
 }
 
 TEST(UrdfLoader, DanglingLinkReferenceNamesTheJoint) {

@@ -20,6 +20,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "model_cli.hpp"
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/core/lie_group.hpp"
@@ -69,11 +70,11 @@ std::vector<int> bodiesOfInterest(const urdf::RobotDescription& robot) {
   return bodies;
 }
 
-int checkFiltered(const std::string& model_path, const std::string& backend,
+int checkFiltered(const urdf::RobotDescription& robot, const std::string& backend,
                   const std::string& filtered_path, bool fixed_base, double tol_weight) {
   ModelOptions options;
   options.floating_base = !fixed_base;
-  auto model = loadModel(backend, model_path, options);
+  auto model = makeModel(backend, robot, options);
   const ModelInfo& info = model->info();
   const auto frames = io::readFilteredMotion(filtered_path, info);
   const io::FilteredMotionResiduals res = io::evaluateFilteredMotion(*model, frames);
@@ -120,18 +121,21 @@ int main(int argc, char** argv) {
                  "the backend that made --filtered; the other one checks it")
       ->check(CLI::IsMember(availableBackends()));
   app.add_option("--tol-weight", tol_weight, "Eq. 12 tolerance on every row, fraction of body weight");
+  tools::ModelCli model_cli;
+  tools::addModelOptions(app, model_cli);
   CLI11_PARSE(app, argc, argv);
 
   try {
     if (!filtered.empty()) {
       const std::string other = filtered_backend == "dart" ? "ode" : "dart";
-      return checkFiltered(model_a, other, filtered, fixed_base, tol_weight);
+      return checkFiltered(tools::loadRobot(model_a, model_cli), other, filtered, fixed_base,
+                           tol_weight);
     }
     if (model_b.empty()) model_b = model_a;
     ModelOptions options;
     options.floating_base = !fixed_base;
-    const auto robot_a = urdf::loadUrdfFile(model_a);
-    const auto robot_b = urdf::loadUrdfFile(model_b);
+    const auto robot_a = tools::loadRobot(model_a, model_cli);
+    const auto robot_b = tools::loadRobot(model_b, model_cli);
     auto a = makeModel(backend_a, robot_a, options);
     auto b = makeModel(backend_b, robot_b, options);
     const ModelInfo& info = a->info();

@@ -13,6 +13,7 @@
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
+#include "model_cli.hpp"
 
 namespace {
 
@@ -49,11 +50,14 @@ int main(int argc, char** argv) {
   app.add_option("--dt", dt, "simulation step (s)")->check(CLI::PositiveNumber);
   app.add_option("--kp", kp, "posture stiffness (N m / rad)");
   app.add_option("--kd", kd, "posture damping (N m s / rad)");
+  dynfilter::tools::ModelCli model_cli;
+  dynfilter::tools::addModelOptions(app, model_cli);
   CLI11_PARSE(app, argc, argv);
 
   try {
-    const auto robot = dynfilter::urdf::loadUrdfFile(urdf_path);
-    for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    const auto robot = dynfilter::tools::loadRobot(urdf_path, model_cli);
+    if (!model_cli.verbose)
+      for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     dynfilter::ModelOptions options;
     options.floating_base = !fixed_base;
     auto model = dynfilter::makeModel(backend, robot, options);
@@ -64,6 +68,18 @@ int main(int argc, char** argv) {
                 info.body_names.size(), info.nj, info.nq, info.nv,
                 info.floating_base ? "floating" : "fixed");
     std::printf("  total mass %.3f kg\n", info.total_mass);
+    if (!robot.mimic_joints.empty()) {
+      std::printf("  mimic joints (no coordinate; q = k q_leader + c):\n");
+      for (const int f : robot.mimic_joints) {
+        const auto& j = robot.joints[static_cast<std::size_t>(f)];
+        std::printf("    %s = %g * %s %+g\n", j.name.c_str(), j.mimic_multiplier,
+                    robot.joints[static_cast<std::size_t>(j.mimic_leader)].name.c_str(),
+                    j.mimic_offset);
+      }
+    }
+    if (!robot.ignored_elements.empty() && !model_cli.verbose)
+      std::printf("  %zu kinds of URDF elements ignored (--verbose lists them)\n",
+                  robot.ignored_elements.size());
     if (list_joints) printJoints(info);
 
     // Timing of the dynamics terms at one state (a benchmark lives in tests/bench).

@@ -6,7 +6,8 @@
 // The filter ticks at about --tick-hz (default 500 Hz; the config's dt_s is the real-time
 // process's tick and is not used here) against the reference interpolated between its
 // frames; for a uniformly sampled reference the tick is a whole fraction of the frame
-// period. The loop is io::runOffline (io/offline_run.hpp), shared with the Python binding. One output row per reference frame (or per tick with --every-tick),
+// period (the loop is io::runOffline, io/offline_run.hpp, shared with the Python binding).
+// One output row per reference frame (or per tick with --every-tick),
 // plus <output stem>.contacts.csv. Nothing is written unless the whole run succeeds.
 #include <algorithm>
 #include <chrono>
@@ -20,7 +21,8 @@
 
 #include <CLI/CLI.hpp>
 
-#include "dynfilter/core/filter_output.hpp"
+#include "model_cli.hpp"
+#include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
@@ -109,10 +111,12 @@ int main(int argc, char** argv) {
   std::string backend = "dart", mode;
   double tick_hz = 500.0, slope_deg = NAN, heading_deg = 0.0, friction = NAN;
   bool every_tick = false, quiet = false, no_progress = false;
-  std::string bodies_path;
+  std::string bodies_path, events_path;
   app.add_option("reference", reference_path, "reference motion CSV (see README)")->required();
   app.add_option("-o,--output", output_path, "filtered motion CSV to write")->required();
   app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
+  dynfilter::tools::ModelCli model_cli;
+  dynfilter::tools::addModelOptions(app, model_cli);
   app.add_option("-c,--config", config_path, "YAML configuration (tools/config/default.yaml)");
   app.add_option("--backend", backend, "dynamics backend: dart or ode")
       ->check(CLI::IsMember(availableBackends()));
@@ -131,12 +135,20 @@ int main(int argc, char** argv) {
   app.add_option("--bodies-csv", bodies_path,
                  "also write every link's world position, reference and filtered, per row "
                  "(for pictures)");
+  double preview_s = NAN;
+  app.add_option("--preview-s", preview_s,
+                 "look-ahead of the balance layer (QP mode), s; default: the whole clip")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--events-csv", events_path,
+                 "also write one row per tick that re-seeded, relaxed or fell back: "
+                 "time,tick,status,reseed_reason,qp_relaxation,qp_violated,base_error_m,"
+                 "base_rotation_rad,max_joint_error_rad (what tools/diagnose_reseeds.py reads)");
   app.add_flag("-q,--quiet", quiet, "no summary");
   CLI11_PARSE(app, argc, argv);
 
   try {
     io::FilterConfig config = config_path.empty() ? io::FilterConfig{} : io::loadFilterConfig(config_path);
-    const auto robot = urdf::loadUrdfFile(model_path);
+    const auto robot = dynfilter::tools::loadRobot(model_path, model_cli);
     for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     // The motion is read first (any model of the robot knows its coordinates): a slope
     // given on the command line passes under the motion's first base position.
@@ -158,36 +170,64 @@ int main(int argc, char** argv) {
     model_options.environment = config.environment;
     auto model = makeModel(backend, robot, model_options);
 
+    io::OfflineRunOptions run_options;
+    run_options.tick_hz = tick_hz;
+    run_options.every_tick = every_tick;
+    run_options.preview_s = preview_s;  // NaN: offline the whole clip is known
+    std::FILE* events = nullptr;
+    if (!events_path.empty()) {
+      events = std::fopen((events_path + ".tmp").c_str(), "w");
+      if (events == nullptr) throw std::runtime_error("cannot write " + events_path + ".tmp");
+      std::fprintf(events, "time,tick,status,reseed_reason,qp_relaxation,qp_violated,base_error_m,"
+                           "base_rotation_rad,max_joint_error_rad\n");
+    }
+    const int nb = model->info().floating_base ? 6 : 0;
     io::FilteredMotionWriter writer(output_path, model->info());
     BodyPositionWriter bodies(bodies_path, model->info());
     tools::RunSummary summary(model->info());
     ProgressBar progress(!no_progress && !quiet && isatty(STDERR_FILENO));
     const auto wall0 = std::chrono::steady_clock::now();
     int written = 0;
-    io::OfflineRunOptions run_options;
-    run_options.tick_hz = tick_hz;
-    run_options.every_tick = every_tick;
-    io::runOffline(*model, config.filter, motion, run_options, proxqp::factory(),
-                   [&](const io::OfflineTick& tick) {
-                     const FilterOutput& out = *tick.output;
-                     summary.add(out);
-                     if (tick.row) {
-                       writer.append(out);
-                       ++written;
-                       if (bodies) {
-                         // After the tick, so the filter's next setState is unaffected.
-                         bodies.write(*model, "reference", tick.reference->time_s,
-                                      tick.reference->q);
-                         bodies.write(*model, "filtered", out.time_s, out.q);
-                       }
-                     }
-                     progress.update(static_cast<double>(tick.index + 1) /
-                                     static_cast<double>(tick.count));
-                   });
+    io::runOffline(
+        *model, config.filter, motion, run_options, proxqp::factory(),
+        [&](const io::OfflineTick& tick) {
+          const FilterOutput& out = *tick.output;
+          if (tick.index == 0 && config.filter.task.enabled && config.filter.task.body.empty() &&
+              !quiet)
+            std::fprintf(stderr, "task point on \"%s\" (task.body not configured: the model's trunk)\n",
+                         model->info().body_names[static_cast<std::size_t>(tick.filter->taskBody())].c_str());
+          summary.add(out);
+          if (events != nullptr &&
+              (out.status & (kStatusReseeded | kStatusQpRelaxed | kStatusQpFallback))) {
+            char violated[96];
+            const Eigen::VectorXd& e = out.tracking_error;
+            std::fprintf(events, "%.6f,%ld,%u,%s,%u,%s,%.6g,%.6g,%.6g\n", tick.time_s, tick.index,
+                         out.status, (out.status & kStatusReseeded) ? toString(out.reseed_reason) : "",
+                         out.qp_relaxation,
+                         describeQpFamilies(out.qp_violated, violated, sizeof violated),
+                         nb ? e.head<3>().norm() : 0.0, nb ? e.segment<3>(3).norm() : 0.0,
+                         model->nj() > 0 ? e.tail(model->nj()).cwiseAbs().maxCoeff() : 0.0);
+          }
+          if (tick.row) {
+            writer.append(out);
+            ++written;
+            if (bodies) {
+              // After the tick, so the filter's next setState is unaffected.
+              bodies.write(*model, "reference", tick.reference->time_s, tick.reference->q);
+              bodies.write(*model, "filtered", out.time_s, out.q);
+            }
+          }
+          progress.update(static_cast<double>(tick.index + 1) / static_cast<double>(tick.count));
+        });
     progress.done();
     writer.commit();
     bodies.commit();
-    const double t_end = motion.frames.back().time_s, t0 = motion.frames.front().time_s;
+    if (events != nullptr) {
+      const bool ok = std::fclose(events) == 0;
+      if (!ok || std::rename((events_path + ".tmp").c_str(), events_path.c_str()) != 0)
+        throw std::runtime_error("cannot write " + events_path);
+    }
+    const double t0 = motion.frames.front().time_s, t_end = motion.frames.back().time_s;
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     if (!quiet) {
       std::fprintf(stderr, "wrote %s and %s\n", writer.path().c_str(), writer.contactsPath().c_str());

@@ -22,6 +22,7 @@
 #include "dynfilter/io/config.hpp"
 #include "dynfilter/lcm/messages.hpp"
 #include "dynfilter/realtime/realtime_filter.hpp"
+#include "model_cli.hpp"
 #include "process_support.hpp"
 
 namespace {
@@ -149,6 +150,8 @@ int main(int argc, char** argv) {
   double rate_hz = 1000.0, duration_s = 0.0;
   realtime::RealtimeOptions rt_options;
   app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
+  dynfilter::tools::ModelCli model_cli;
+  dynfilter::tools::addModelOptions(app, model_cli);
   app.add_option("--backend", backend, "dart or ode")->check(CLI::IsMember(availableBackends()));
   app.add_option("-c,--config", config_path, "YAML configuration");
   std::string mode;
@@ -189,13 +192,16 @@ int main(int argc, char** argv) {
       model_options.floating_base = false;
       model_options.environment.has_ground = false;
     }
-    auto model = loadModel(backend, model_path, model_options);
+    auto model = makeModel(backend, dynfilter::tools::loadRobot(model_path, model_cli), model_options);
     const ModelInfo& info = model->info();
 
     ReferenceFrame hold(info.nq, info.nv);
     hold.q = info.neutralConfiguration();
     if (info.floating_base) hold.q[2] = standingBaseHeight(*model, hold.q);
     realtime::RealtimeFilter rt(*model, config.filter, rt_options, hold, proxqp::factory());
+    if (config.filter.task.enabled && config.filter.task.body.empty())
+      std::fprintf(stderr, "dynfilter: task point on \"%s\" (task.body not configured: the model's trunk)\n",
+                   info.body_names[static_cast<std::size_t>(rt.filter().taskBody())].c_str());
 
     lcm::LCM lcm(url);
     if (!lcm.good()) throw std::runtime_error("cannot open LCM (" + (url.empty() ? std::string("default URL") : url) + ")");

@@ -26,6 +26,7 @@
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/lcm/messages.hpp"
 #include "dynfilter/realtime/replay_player.hpp"
+#include "model_cli.hpp"
 #include "process_support.hpp"
 
 namespace {
@@ -48,6 +49,8 @@ int main(int argc, char** argv) {
   app.add_option("clips", files, "reference motion CSV files or BVH captures")->required();
   app.add_option("--mapping", mappings, "retargeting mapping YAML, one per .bvh clip, in order");
   app.add_option("-m,--model", model_path, "URDF model the files are for");
+  dynfilter::tools::ModelCli model_cli;
+  dynfilter::tools::addModelOptions(app, model_cli);
   app.add_option("--speed", options.speed, "playback speed factor")->check(CLI::PositiveNumber);
   app.add_flag("--loop", options.loop, "restart a clip at its end");
   app.add_option("--start-s", options.start_offset_s, "start every clip this far in (s)");
@@ -59,7 +62,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
-    auto model = loadModel("dart", model_path, ModelOptions{});
+    auto model = makeModel("dart", dynfilter::tools::loadRobot(model_path, model_cli), ModelOptions{});
     const ModelInfo& info = model->info();
     std::vector<realtime::Clip> clips;
     std::size_t next_mapping = 0;

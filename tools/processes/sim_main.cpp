@@ -17,6 +17,7 @@
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/lcm/messages.hpp"
+#include "model_cli.hpp"
 #include "process_support.hpp"
 
 namespace {
@@ -81,6 +82,8 @@ int main(int argc, char** argv) {
   std::string command_channel = msg::kTorqueCommandChannel, state_channel = msg::kRobotStateChannel;
   double rate_hz = 1000.0, duration_s = 0.0, command_timeout_s = 0.1, servo_error_rad = 0.1;
   app.add_option("-m,--model", model_path, "URDF model (default: the human figure)");
+  dynfilter::tools::ModelCli model_cli;
+  dynfilter::tools::addModelOptions(app, model_cli);
   app.add_option("--backend", backend, "dart or ode")->check(CLI::IsMember(availableBackends()));
   app.add_option("--rate-hz", rate_hz, "simulation and publishing rate")->check(CLI::Range(1.0, 10000.0));
   app.add_option("--duration-s", duration_s, "stop after this long (0: until SIGINT/SIGTERM)");
@@ -109,11 +112,12 @@ int main(int argc, char** argv) {
       model_options.floating_base = false;
       model_options.environment.has_ground = false;
     }
-    auto model = loadModel(backend, model_path, model_options);
+    const auto robot = dynfilter::tools::loadRobot(model_path, model_cli);
+    auto model = makeModel(backend, robot, model_options);
     const ModelInfo& info = model->info();
     // On the harness the robot still reports a free-floating state, its base held at the
     // standing pose, so that the filter can close the loop on it.
-    auto free_model = loadModel(backend, model_path, ModelOptions{});
+    auto free_model = makeModel(backend, robot, ModelOptions{});
     const ModelInfo& reported = free_model->info();
     Eigen::VectorXd q_report = reported.neutralConfiguration();
     if (reported.floating_base) q_report[2] = standingBaseHeight(*free_model, q_report);

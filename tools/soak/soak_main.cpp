@@ -37,6 +37,7 @@
 #include <CLI/CLI.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include "model_cli.hpp"
 #include "child_process.hpp"
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/core/filter_output.hpp"
@@ -328,6 +329,8 @@ int main(int argc, char** argv) {
   app.add_option("--sim-arg", sim_args, "extra argument for dynfilter-sim (repeatable)")->allow_extra_args(false);
   app.add_option("--process-dir", process_dir, "where dynfilter, dynfilter-sim, dynfilter-replay are");
   app.add_option("-m,--model", model_path, "URDF model (effort limits)");
+  dynfilter::tools::ModelCli model_cli;
+  dynfilter::tools::addModelOptions(app, model_cli);
   app.add_option("--out-dir", out_dir, "report.md, report.json and the processes' logs go here");
   app.add_option("--lcm-url", url, "LCM URL (default: a private udpm port per soak process)");
   CLI11_PARSE(app, argc, argv);
@@ -339,7 +342,7 @@ int main(int argc, char** argv) {
 
   std::unique_ptr<IDynamicsModel> model;
   try {
-    model = loadModel("dart", model_path, ModelOptions{});
+    model = makeModel("dart", dynfilter::tools::loadRobot(model_path, model_cli), ModelOptions{});
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dynfilter-soak: %s\n", e.what());
     return 2;

@@ -6,13 +6,19 @@
 #include <unordered_map>
 #include <vector>
 
+#include <Eigen/Cholesky>
+
 #include <dart/collision/CollisionFilter.hpp>
 #include <dart/collision/CollisionGroup.hpp>
 #include <dart/collision/CollisionObject.hpp>
 #include <dart/collision/CollisionResult.hpp>
 #include <dart/collision/bullet/BulletCollisionDetector.hpp>
+#include <dart/collision/bullet/BulletCollisionGroup.hpp>
+#include <BulletCollision/Gimpact/btGImpactCollisionAlgorithm.h>
 #include <dart/constraint/ConstraintSolver.hpp>
 #include <dart/dynamics/FreeJoint.hpp>
+#include <dart/dynamics/MeshShape.hpp>
+#include <dart/dynamics/PlaneShape.hpp>
 #include <dart/dynamics/ShapeFrame.hpp>
 #include <dart/dynamics/ShapeNode.hpp>
 #include <dart/simulation/World.hpp>
@@ -30,12 +36,23 @@ using dart::dynamics::Frame;
 
 // Keeps only robot-versus-environment pairs in the one collision group that holds both.
 // (DART's two-group collide() builds a temporary Bullet world on every call: ~300 µs.)
+// The ground is two shapes: a slab for primitives (box-box gives the full contact polygon)
+// and a plane for convex-hull meshes (Bullet reports each hull vertex below a plane, but
+// only the closest point per triangle against a box).
 class RobotVersusEnvironmentFilter final : public dart::collision::CollisionFilter {
  public:
   explicit RobotVersusEnvironmentFilter(const BuiltRobot& robot) : robot_(robot) {}
   bool ignoresCollision(const dart::collision::CollisionObject* a,
                         const dart::collision::CollisionObject* b) const override {
-    return isRobot(a) == isRobot(b);
+    const bool robot_a = isRobot(a);
+    if (robot_a == isRobot(b)) return true;
+    const auto* robot_object = robot_a ? a : b;
+    const auto* env_object = robot_a ? b : a;
+    const bool hull = robot_object->getShape()->is<dart::dynamics::MeshShape>();
+    const auto* env_frame = env_object->getShapeFrame();
+    const bool ground_plane = env_frame->getShape()->is<dart::dynamics::PlaneShape>();
+    const bool ground_slab = env_frame->getName() == kGroundSlabShapeName;
+    return hull ? ground_slab : ground_plane;
   }
 
  private:
@@ -44,6 +61,33 @@ class RobotVersusEnvironmentFilter final : public dart::collision::CollisionFilt
   }
   const BuiltRobot& robot_;
 };
+
+// DART hands a MeshShape to Bullet as a btGImpactMeshShape but registers no collision
+// algorithm for it (such a mesh then touches nothing): register Bullet's GImpact
+// algorithm on the group's dispatcher and take the meshes' default 1 cm margin off, so a
+// hull reports its vertices below the ground plane at their true depth.
+// (DART 6.12 keeps the group's Bullet world protected; a derived class may name it.)
+struct BulletWorldAccess : dart::collision::BulletCollisionGroup {
+  static btCollisionWorld* of(dart::collision::BulletCollisionGroup* group) {
+    btCollisionWorld* (dart::collision::BulletCollisionGroup::*get)() =
+        &BulletWorldAccess::getBulletCollisionWorld;
+    return (group->*get)();
+  }
+};
+
+void enableHullContacts(dart::collision::CollisionGroup* group) {
+  auto* bullet = dynamic_cast<dart::collision::BulletCollisionGroup*>(group);
+  if (bullet == nullptr) throw std::logic_error("DART backend: collision group is not Bullet's");
+  btCollisionWorld* world = BulletWorldAccess::of(bullet);
+  btGImpactCollisionAlgorithm::registerAlgorithm(
+      static_cast<btCollisionDispatcher*>(world->getDispatcher()));
+  for (int i = 0; i < world->getNumCollisionObjects(); ++i) {
+    btCollisionShape* shape = world->getCollisionObjectArray()[i]->getCollisionShape();
+    if (shape->getShapeType() != GIMPACT_SHAPE_PROXYTYPE) continue;
+    shape->setMargin(0.0);
+    static_cast<btGImpactShapeInterface*>(shape)->updateBound();
+  }
+}
 
 // Above this speed (m/s or rad/s in any coordinate) a state is treated as diverged.
 constexpr double kMaxSimulatedSpeed = 1e3;
@@ -62,9 +106,12 @@ class DartModel final : public IDynamicsModel {
         dart_v_(robot_.skeleton->getNumDofs()),
         dart_tau_(robot_.skeleton->getNumDofs()),
         mass_matrix_(mass_matrix),
-        v_of_dof_(robot_.skeleton->getNumDofs(), -1),
-        inertia_times_J_(6, robot_.skeleton->getNumDofs()) {
-    for (int i = 0; i < info_.nv; ++i) v_of_dof_[static_cast<std::size_t>(robot_.dof_of_v[i])] = i;
+        v_of_dof_(robot_.v_of_dof),
+        factor_of_dof_(robot_.factor_of_dof),
+        inertia_times_J_(6, robot_.skeleton->getNumDofs()),
+        A_scratch_(info_.nv, info_.nv),
+        b_scratch_(info_.nv),
+        llt_(info_.nv) {
     robot_.skeleton->setGravity(options.gravity_W);
     for (std::size_t k = 0; k < env_.skeleton->getNumBodyNodes(); ++k)
       env_object_[env_.skeleton->getBodyNode(k)] = env_.object_of_body[k];
@@ -77,9 +124,12 @@ class DartModel final : public IDynamicsModel {
     world_ = dart::simulation::World::create("dynfilter");
     world_->getConstraintSolver()->setCollisionDetector(
         dart::collision::BulletCollisionDetector::create());
+    world_->getConstraintSolver()->getCollisionOption().collisionFilter = collision_filter_;
     world_->setGravity(options.gravity_W);
     world_->addSkeleton(robot_.skeleton);
     world_->addSkeleton(env_.skeleton);
+    enableHullContacts(collision_group_.get());
+    enableHullContacts(world_->getConstraintSolver()->getCollisionGroup().get());
     for (std::size_t i = 0; i < robot_.skeleton->getNumJoints(); ++i)
       robot_.skeleton->getJoint(i)->setLimitEnforcement(options.enforce_joint_limits_in_simulation);
     pushState();
@@ -121,12 +171,14 @@ class DartModel final : public IDynamicsModel {
     const auto& J_O = f.node->getWorldJacobian();
     const auto& dofs = f.node->getDependentGenCoordIndices();
     const Eigen::Vector3d r_W = f.node->getWorldTransform().linear() * (f.X_NL * p_BP);
+    // A mimic follower's column adds to its leader's, times the multiplier.
     J_out.setZero();
     for (std::size_t k = 0; k < dofs.size(); ++k) {
       const int i = v_of_dof_[dofs[k]];
+      const double factor = factor_of_dof_[dofs[k]];
       const Eigen::Vector3d omega = J_O.col(static_cast<Eigen::Index>(k)).head<3>();
-      J_out.col(i).head<3>() = J_O.col(static_cast<Eigen::Index>(k)).tail<3>() + omega.cross(r_W);
-      J_out.col(i).tail<3>() = omega;
+      J_out.col(i).head<3>() += factor * (J_O.col(static_cast<Eigen::Index>(k)).tail<3>() + omega.cross(r_W));
+      J_out.col(i).tail<3>() += factor * omega;
     }
   }
 
@@ -143,10 +195,13 @@ class DartModel final : public IDynamicsModel {
 
   void massMatrix(Eigen::Ref<Eigen::MatrixXd> A_out) const override {
     if (mass_matrix_ == DartMassMatrix::kSkeleton) {
+      // A = Gᵀ M G with G the dof ← v map (one entry per dof, its factor).
       const Eigen::MatrixXd& M = robot_.skeleton->getMassMatrix();
-      for (int j = 0; j < info_.nv; ++j)
-        for (int i = 0; i < info_.nv; ++i)
-          A_out(i, j) = M(robot_.dof_of_v[i], robot_.dof_of_v[j]);
+      A_out.setZero();
+      for (Eigen::Index b = 0; b < M.cols(); ++b)
+        for (Eigen::Index a = 0; a < M.rows(); ++a)
+          A_out(v_of_dof_[static_cast<std::size_t>(a)], v_of_dof_[static_cast<std::size_t>(b)]) +=
+              factor_of_dof_[static_cast<std::size_t>(a)] * factor_of_dof_[static_cast<std::size_t>(b)] * M(a, b);
       return;
     }
     // A = Σ_k J_kᵀ M_k J_k over bodies, with DART's cached body Jacobians and spatial
@@ -160,25 +215,48 @@ class DartModel final : public IDynamicsModel {
       const Eigen::Index d = J.cols();
       auto MJ = inertia_times_J_.leftCols(d);
       MJ.noalias() = node->getSpatialInertia() * J;
+      // Gᵀ (Jᵀ M J) G: a dof pair (a, b) adds f_a f_b (Jᵀ M J)_ab at (v(a), v(b)) and,
+      // for a ≠ b, its transpose (twice onto the diagonal when a mimic follower and
+      // its leader share one v).
       for (Eigen::Index b = 0; b < d; ++b) {
-        const int col = v_of_dof_[dofs[static_cast<std::size_t>(b)]];
+        const std::size_t dof_b = dofs[static_cast<std::size_t>(b)];
+        const int col = v_of_dof_[dof_b];
         for (Eigen::Index a = 0; a <= b; ++a) {
-          const int row = v_of_dof_[dofs[static_cast<std::size_t>(a)]];
-          const double value = J.col(a).dot(MJ.col(b));
+          const std::size_t dof_a = dofs[static_cast<std::size_t>(a)];
+          const int row = v_of_dof_[dof_a];
+          const double value = factor_of_dof_[dof_a] * factor_of_dof_[dof_b] * J.col(a).dot(MJ.col(b));
           A_out(row, col) += value;
-          if (row != col) A_out(col, row) += value;
+          if (a != b) A_out(col, row) += value;
         }
       }
     }
   }
 
   void bias(Eigen::Ref<Eigen::VectorXd> b_out) const override {
+    // b = Gᵀ h, h at the full velocities G v (G is constant, so no Ġ v term).
     const Eigen::VectorXd& h = robot_.skeleton->getCoriolisAndGravityForces();
-    for (int i = 0; i < info_.nv; ++i) b_out[i] = h[robot_.dof_of_v[i]];
+    b_out.setZero();
+    for (Eigen::Index d = 0; d < h.size(); ++d)
+      b_out[v_of_dof_[static_cast<std::size_t>(d)]] += factor_of_dof_[static_cast<std::size_t>(d)] * h[d];
   }
 
   void forwardDynamics(const Eigen::Ref<const Eigen::VectorXd>& tau_J,
                        Eigen::Ref<Eigen::VectorXd> vdot_out) const override {
+    if (robot_.has_mimic) {
+      // DART's articulated-body algorithm knows no coupling: solve A v̇ = τ − b in the
+      // reduced coordinates (followers are passive; the coupling acts on the leader).
+      if (tau_J.size() != info_.nj)
+        throw InvalidStateError("torque vector has " + std::to_string(tau_J.size()) +
+                                " entries, expected nj = " + std::to_string(info_.nj));
+      massMatrix(A_scratch_);
+      bias(b_scratch_);
+      b_scratch_ = -b_scratch_;
+      b_scratch_.tail(info_.nj) += tau_J;
+      llt_.compute(A_scratch_);
+      llt_.solveInPlace(b_scratch_);
+      vdot_out = b_scratch_;
+      return;
+    }
     setJointForces(tau_J);
     robot_.skeleton->computeForwardDynamics();
     const Eigen::VectorXd& ddq = robot_.skeleton->getAccelerations();
@@ -211,6 +289,14 @@ class DartModel final : public IDynamicsModel {
       cand.n_W = (robot_first ? c.normal : -c.normal).normalized();
       cand.depth_m = c.penetrationDepth;
       cand.p_WC = c.point;
+      if (robot_shape->getShape()->is<dart::dynamics::MeshShape>() &&
+          cand.object == kGroundObject) {
+        // Bullet's GImpact-versus-plane contact puts the point one depth beyond the hull
+        // vertex: move it back to the vertex, which lies depth_m below the plane.
+        const GroundPlane& g = environment_.ground;
+        const double below = g.offset_m - g.n_W.dot(cand.p_WC);
+        cand.p_WC += cand.n_W * (below - cand.depth_m);
+      }
       cand.p_BC = bodyPose(cand.body).inverse() * cand.p_WC;
       out.push(cand);
     }
@@ -256,8 +342,12 @@ class DartModel final : public IDynamicsModel {
       base_q = 7;
     }
     const int base_v = info_.floating_base ? 6 : 0;
-    for (int j = 0; j < info_.nj; ++j) dart_q_[robot_.dof_of_v[base_v + j]] = q_[base_q + j];
-    for (int i = 0; i < info_.nv; ++i) dart_v_[robot_.dof_of_v[i]] = v_[i];
+    for (Eigen::Index d = 0; d < dart_q_.size(); ++d) {
+      const auto k = static_cast<std::size_t>(d);
+      const int i = v_of_dof_[k];
+      dart_v_[d] = factor_of_dof_[k] * v_[i];
+      if (i >= base_v) dart_q_[d] = factor_of_dof_[k] * q_[base_q + i - base_v] + robot_.offset_of_dof[k];
+    }
     robot_.skeleton->setPositions(dart_q_);
     robot_.skeleton->setVelocities(dart_v_);
   }
@@ -291,8 +381,12 @@ class DartModel final : public IDynamicsModel {
   Eigen::VectorXd dart_q_, dart_v_;
   mutable Eigen::VectorXd dart_tau_;
   DartMassMatrix mass_matrix_;
-  std::vector<int> v_of_dof_;            // inverse of dof_of_v
+  std::vector<int> v_of_dof_;            // dof → v index (mimic followers: their leader's)
+  std::vector<double> factor_of_dof_;    // dof → mimic multiplier (1 otherwise)
   mutable Matrix6Xd inertia_times_J_;    // scratch, 6 × ndofs
+  mutable Eigen::MatrixXd A_scratch_;    // forward dynamics with mimic joints
+  mutable Eigen::VectorXd b_scratch_;
+  mutable Eigen::LLT<Eigen::MatrixXd> llt_;
 };
 
 }  // namespace

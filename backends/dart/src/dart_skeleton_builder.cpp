@@ -1,5 +1,6 @@
 #include "dart_skeleton_builder.hpp"
 
+#include <iostream>
 #include <limits>
 
 #include <dart/dynamics/BoxShape.hpp>
@@ -11,6 +12,10 @@
 #include <dart/dynamics/SphereShape.hpp>
 #include <dart/dynamics/WeldJoint.hpp>
 #include <dart/dynamics/Inertia.hpp>
+#include <dart/dynamics/MeshShape.hpp>
+#include <dart/dynamics/PlaneShape.hpp>
+
+#include <assimp/scene.h>
 
 #include "dynfilter/core/contact.hpp"
 
@@ -50,6 +55,42 @@ void setSingleDofLimits(JointT* joint, const urdf::JointDesc& j) {
   joint->setForceUpperLimit(0, inf);
 }
 
+// A DART mesh of the hull's faces (fan-triangulated). DART's Bullet collision turns a
+// MeshShape into a btGImpactMeshShape: against the ground plane it reports the hull
+// vertices below the plane, against boxes the closest point per touching triangle.
+ShapePtr makeHullMesh(const urdf::ConvexHull& hull) {
+  auto* mesh = new aiMesh();
+  mesh->mPrimitiveTypes = aiPrimitiveType_TRIANGLE;
+  mesh->mNumVertices = static_cast<unsigned>(hull.vertices_S.size());
+  mesh->mVertices = new aiVector3D[mesh->mNumVertices];
+  for (unsigned i = 0; i < mesh->mNumVertices; ++i)
+    mesh->mVertices[i] = aiVector3D(static_cast<ai_real>(hull.vertices_S[i].x()),
+                                    static_cast<ai_real>(hull.vertices_S[i].y()),
+                                    static_cast<ai_real>(hull.vertices_S[i].z()));
+  unsigned triangles = 0;
+  for (const auto& f : hull.faces) triangles += static_cast<unsigned>(f.size() - 2);
+  mesh->mNumFaces = triangles;
+  mesh->mFaces = new aiFace[triangles];
+  unsigned t = 0;
+  for (const auto& f : hull.faces) {
+    for (std::size_t k = 1; k + 1 < f.size(); ++k, ++t) {
+      aiFace& face = mesh->mFaces[t];
+      face.mNumIndices = 3;
+      face.mIndices = new unsigned[3]{static_cast<unsigned>(f[0]), static_cast<unsigned>(f[k]),
+                                      static_cast<unsigned>(f[k + 1])};
+    }
+  }
+  auto* scene = new aiScene();
+  scene->mNumMeshes = 1;
+  scene->mMeshes = new aiMesh*[1]{mesh};
+  scene->mRootNode = new aiNode();
+  scene->mRootNode->mNumMeshes = 1;
+  scene->mRootNode->mMeshes = new unsigned[1]{0};
+  // MeshShape owns the scene (released with aiReleaseImport, which deletes a scene that
+  // no importer made).
+  return std::make_shared<dart::dynamics::MeshShape>(Eigen::Vector3d::Ones(), scene);
+}
+
 ShapePtr makeShape(const urdf::CollisionShapeDesc& s) {
   switch (s.kind) {
     case urdf::ShapeKind::kBox:
@@ -58,6 +99,8 @@ ShapePtr makeShape(const urdf::CollisionShapeDesc& s) {
       return std::make_shared<dart::dynamics::SphereShape>(s.radius_m);
     case urdf::ShapeKind::kCylinder:
       return std::make_shared<dart::dynamics::CylinderShape>(s.radius_m, s.length_m);
+    case urdf::ShapeKind::kConvexHull:
+      return makeHullMesh(s.hull);
   }
   return nullptr;
 }
@@ -158,12 +201,17 @@ BuiltRobot buildRobotSkeleton(const urdf::RobotDescription& robot, bool floating
   }
   for (std::size_t k = 0; k < built.skeleton->getNumBodyNodes(); ++k) {
     BodyNode* node = built.skeleton->getBodyNode(k);
-    // A massless body can only be a root welded to the world (validateForDynamics
-    // guarantees mass on every moving link); its inertia then never enters the dynamics.
-    node->setInertia(lumped[k].mass_kg > 0.0
-                         ? lumped[k].inertia()
-                         : dart::dynamics::Inertia(1.0, Eigen::Vector3d::Zero(),
-                                                   Eigen::Matrix3d::Identity()));
+    // Massless bodies keep the URDF's zero (DART's default would be 1 kg): the
+    // articulated inertias of the bodies beyond them keep A positive definite, which
+    // validateForDynamics checks joint by joint.
+    if (lumped[k].mass_kg > 0.0) {
+      node->setInertia(lumped[k].inertia());
+    } else {
+      // DART warns on std::cerr about every zero mass; this one is intended.
+      std::streambuf* previous = std::cerr.rdbuf(nullptr);
+      node->setInertia(dart::dynamics::Inertia(0.0, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Zero()));
+      std::cerr.rdbuf(previous);
+    }
   }
 
   const int nj = static_cast<int>(robot.moving_joints.size());
@@ -180,6 +228,27 @@ BuiltRobot buildRobotSkeleton(const urdf::RobotDescription& robot, bool floating
     const urdf::JointDesc& j = robot.joints[robot.moving_joints[c]];
     built.dof_of_v[base + c] = static_cast<int>(
         built.links[j.child_link].node->getParentJoint()->getIndexInSkeleton(0));
+  }
+  const std::size_t ndofs = built.skeleton->getNumDofs();
+  built.v_of_dof.assign(ndofs, -1);
+  built.factor_of_dof.assign(ndofs, 1.0);
+  built.offset_of_dof.assign(ndofs, 0.0);
+  for (std::size_t i = 0; i < built.dof_of_v.size(); ++i)
+    built.v_of_dof[static_cast<std::size_t>(built.dof_of_v[i])] = static_cast<int>(i);
+  for (const int f : robot.mimic_joints) {
+    const urdf::JointDesc& j = robot.joints[static_cast<std::size_t>(f)];
+    const urdf::JointDesc& leader = robot.joints[static_cast<std::size_t>(j.mimic_leader)];
+    dart::dynamics::Joint* joint = built.links[j.child_link].node->getParentJoint();
+    const std::size_t dof = joint->getIndexInSkeleton(0);
+    built.v_of_dof[dof] = base + leader.coordinate;
+    built.factor_of_dof[dof] = j.mimic_multiplier;
+    built.offset_of_dof[dof] = j.mimic_offset;
+    // DART's own simulator (World::step) holds the follower with a mimic motor
+    // constraint; the analytic queries use factor_of_dof instead.
+    joint->setActuatorType(dart::dynamics::Joint::MIMIC);
+    joint->setMimicJoint(built.links[leader.child_link].node->getParentJoint(),
+                         j.mimic_multiplier, j.mimic_offset);
+    built.has_mimic = true;
   }
   return built;
 }
@@ -212,7 +281,13 @@ BuiltEnvironment buildEnvironmentSkeleton(const Environment& environment) {
     addCollisionShape(ground,
                       std::make_shared<dart::dynamics::BoxShape>(Eigen::Vector3d(
                           kGroundSlabSize_m, kGroundSlabSize_m, kGroundSlabThickness_m)),
-                      Eigen::Isometry3d::Identity(), g.friction);
+                      Eigen::Isometry3d::Identity(), g.friction)
+        ->setName(kGroundSlabShapeName);
+    Eigen::Isometry3d X_GP = Eigen::Isometry3d::Identity();
+    X_GP.translation().z() = 0.5 * kGroundSlabThickness_m;  // the slab's top face
+    addCollisionShape(ground,
+                      std::make_shared<dart::dynamics::PlaneShape>(Eigen::Vector3d::UnitZ(), 0.0),
+                      X_GP, g.friction);
   }
   for (std::size_t i = 0; i < environment.boxes.size(); ++i) {
     const EnvironmentBox& box = environment.boxes[i];

@@ -23,6 +23,8 @@ namespace {
 constexpr int kMaxContactsPerPair = 16;
 // Contact joints the simulator creates per step at most.
 constexpr int kMaxSimulationContacts = 256;
+// Fraction of a mimic follower's position error its motor removes per step.
+constexpr double kMimicErrorReduction = 0.2;
 
 Eigen::Vector3d toEigen(const dReal* v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
 
@@ -117,8 +119,8 @@ class OdeModel final : public IDynamicsModel {
     const Eigen::Vector3d p = bodyPoseOfNode(f.node) * (f.X_BL * p_BP);
     J_out.setZero();
     const int d = compactJacobian(f.node, p);
-    for (int i = 0; i < d; ++i)
-      J_out.col(columns_[static_cast<std::size_t>(i)]) = J_compact_.col(i);
+    for (int i = 0; i < d; ++i)  // a mimic follower's column adds to its leader's
+      J_out.col(columns_[static_cast<std::size_t>(i)]) += J_compact_.col(i);
   }
 
   Vector6d pointJacobianDotTimesV(int body, const Eigen::Vector3d& p_BP) const override {
@@ -134,7 +136,7 @@ class OdeModel final : public IDynamicsModel {
     const auto& nodes = ode_.nodes();
     for (std::size_t k = 0; k < nodes.size(); ++k) {
       const dBodyID body = nodes[k].body;
-      if (body == nullptr) continue;
+      if (body == nullptr || !(nodes[k].mass_kg > 0.0)) continue;  // world or massless
       double m = 0.0;
       Eigen::Matrix3d I_W;
       massProperties(body, m, I_W);
@@ -149,7 +151,8 @@ class OdeModel final : public IDynamicsModel {
           const int row = columns_[static_cast<std::size_t>(a)];
           const double value = J.col(a).dot(MJ.col(b));
           A_out(row, col) += value;
-          if (row != col) A_out(col, row) += value;
+          if (a != b) A_out(col, row) += value;  // twice on the diagonal for a follower
+                                                 // and its leader in one chain
         }
       }
     }
@@ -162,7 +165,7 @@ class OdeModel final : public IDynamicsModel {
     const auto& nodes = ode_.nodes();
     for (std::size_t k = 0; k < nodes.size(); ++k) {
       const dBodyID body = nodes[k].body;
-      if (body == nullptr) continue;
+      if (body == nullptr || !(nodes[k].mass_kg > 0.0)) continue;  // world or massless
       double m = 0.0;
       Eigen::Matrix3d I_W;
       massProperties(body, m, I_W);
@@ -207,6 +210,20 @@ class OdeModel final : public IDynamicsModel {
     if (simulation_state_saved_) restoreSimulationState();
     for (const OdeNode& node : ode_.nodes()) {
       if (node.joint == nullptr) continue;
+      if (node.follower) {
+        // Drive the follower to factor · q_leader + offset: velocity target with a
+        // Baumgarte-style position correction, unbounded motor force.
+        const OdeNode& leader = ode_.nodes()[static_cast<std::size_t>(
+            ode_.nodeOfCoordinate()[static_cast<std::size_t>(node.coordinate)])];
+        const double q_l = jointPosition(leader), v_l = jointRate(leader);
+        const double error = node.factor * q_l + node.offset - jointPosition(node);
+        const double target = node.factor * v_l + kMimicErrorReduction * error / dt_s;
+        if (node.prismatic)
+          dJointSetLMotorParam(node.mimic_motor, dParamVel, target);
+        else
+          dJointSetAMotorParam(node.mimic_motor, dParamVel, target);
+        continue;
+      }
       const double tau = tau_J[node.coordinate];
       if (node.prismatic)
         dJointAddSliderForce(node.joint, tau);
@@ -308,6 +325,14 @@ class OdeModel final : public IDynamicsModel {
     }
   }
 
+  // A joint's position and rate as ODE measures them (zero at the creation pose, q = 0).
+  static double jointPosition(const OdeNode& n) {
+    return n.prismatic ? dJointGetSliderPosition(n.joint) : dJointGetHingeAngle(n.joint);
+  }
+  static double jointRate(const OdeNode& n) {
+    return n.prismatic ? dJointGetSliderPositionRate(n.joint) : dJointGetHingeAngleRate(n.joint);
+  }
+
   void requireTorques(const Eigen::Ref<const Eigen::VectorXd>& tau_J) const {
     if (tau_J.size() != info_.nj)
       throw InvalidStateError("torque vector has " + std::to_string(tau_J.size()) +
@@ -363,12 +388,12 @@ class OdeModel final : public IDynamicsModel {
       dVector3 axis;
       if (n.prismatic) {
         dJointGetSliderAxis(n.joint, axis);
-        J_compact_.col(d) << toEigen(axis), Eigen::Vector3d::Zero();
+        J_compact_.col(d) << n.factor * toEigen(axis), Eigen::Vector3d::Zero();
       } else {
         dVector3 anchor;
         dJointGetHingeAxis(n.joint, axis);
         dJointGetHingeAnchor(n.joint, anchor);
-        const Eigen::Vector3d a = toEigen(axis);
+        const Eigen::Vector3d a = n.factor * toEigen(axis);
         J_compact_.col(d) << a.cross(p - toEigen(anchor)), a;
       }
       ++d;
@@ -404,7 +429,7 @@ class OdeModel final : public IDynamicsModel {
     for (int k = node; nodes[static_cast<std::size_t>(k)].parent >= 0;
          k = nodes[static_cast<std::size_t>(k)].parent) {
       const OdeNode& n = nodes[static_cast<std::size_t>(k)];
-      const double qd = v_[base_v_ + n.coordinate];
+      const double qd = n.factor * v_[base_v_ + n.coordinate];
       const BodyState parent = state(n.parent);
       dVector3 axis;
       if (n.prismatic) {
@@ -458,8 +483,8 @@ class OdeModel final : public IDynamicsModel {
         const Eigen::Matrix3d R_WJ = R_WN_[P] * n.X_PJ.linear();
         const Eigen::Vector3d p_WJ = p_WN_[P] + R_WN_[P] * n.X_PJ.translation();
         const Eigen::Vector3d a = R_WJ * n.axis_J;
-        const double qj = q_[info_.configurationIndex(n.coordinate)];
-        const double qd = v_[info_.velocityIndex(n.coordinate)];
+        const double qj = n.factor * q_[info_.configurationIndex(n.coordinate)] + n.offset;
+        const double qd = n.factor * v_[info_.velocityIndex(n.coordinate)];
         if (n.prismatic) {
           R_WN_[k] = R_WJ;
           p_WN_[k] = p_WJ + a * qj;
@@ -519,6 +544,7 @@ class OdeModel final : public IDynamicsModel {
         v_.segment<3>(3) = R.transpose() * w_WN_[k];
         continue;
       }
+      if (n.follower) continue;  // its position follows from the leader's
       const auto P = static_cast<std::size_t>(n.parent);
       const BodyState parent = state(n.parent);
       const Eigen::Matrix3d R_WJ = R_WN_[P] * n.X_PJ.linear();

@@ -93,13 +93,7 @@ OdeWorld::~OdeWorld() {
 
 void OdeWorld::buildNodes(const urdf::RobotDescription& robot, bool floating_base) {
   links_.assign(robot.links.size(), OdeLinkFrame{});
-  std::vector<int> coordinate_of_joint(robot.joints.size(), -1);
-  for (std::size_t c = 0; c < robot.moving_joints.size(); ++c)
-    coordinate_of_joint[static_cast<std::size_t>(robot.moving_joints[c])] = static_cast<int>(c);
   node_of_coordinate_.assign(robot.moving_joints.size(), -1);
-  for (const int j : robot.moving_joints)
-    joint_limits_.emplace_back(robot.joints[static_cast<std::size_t>(j)].lower,
-                               robot.joints[static_cast<std::size_t>(j)].upper);
 
   std::vector<int> depth;
   for (const int link_index : robot.linksParentFirst()) {
@@ -123,9 +117,18 @@ void OdeWorld::buildNodes(const urdf::RobotDescription& robot, bool floating_bas
       node.X_PJ = parent.X_NL * joint->X_PJ;  // the joint sits on the parent link's frame
       node.axis_J = joint->axis_J.normalized();
       node.prismatic = joint->type == urdf::JointType::kPrismatic;
-      node.coordinate = coordinate_of_joint[static_cast<std::size_t>(link.parent_joint)];
-      node_of_coordinate_[static_cast<std::size_t>(node.coordinate)] =
-          static_cast<int>(nodes_.size());
+      node.lower = joint->lower;
+      node.upper = joint->upper;
+      if (joint->mimics()) {
+        node.follower = true;
+        node.coordinate = robot.joints[static_cast<std::size_t>(joint->mimic_leader)].coordinate;
+        node.factor = joint->mimic_multiplier;
+        node.offset = joint->mimic_offset;
+      } else {
+        node.coordinate = joint->coordinate;
+        node_of_coordinate_[static_cast<std::size_t>(node.coordinate)] =
+            static_cast<int>(nodes_.size());
+      }
     }
     frame.node = static_cast<int>(nodes_.size());
     frame.X_NL = Eigen::Isometry3d::Identity();
@@ -147,13 +150,6 @@ void OdeWorld::buildNodes(const urdf::RobotDescription& robot, bool floating_bas
     node.mass_kg = m.mass_kg;
     node.p_NCom = m.p_NCom;
     node.I_Com_N = m.I_Com_N;
-    const bool simulated = node.parent >= 0 || floating_base;
-    if (simulated && !(node.mass_kg > 0.0)) {
-      // validateForDynamics rules this out; a massless body would abort inside ODE.
-      const auto& link = robot.links[static_cast<std::size_t>(node.link)];
-      throw ModelError(robot.source, link.line, "link \"" + link.name + "\"",
-                       "zero lumped mass on a simulated body");
-    }
   }
   for (std::size_t l = 0; l < links_.size(); ++l) {
     const OdeNode& node = nodes_[static_cast<std::size_t>(links_[l].node)];
@@ -175,8 +171,13 @@ void OdeWorld::createBodiesAndJoints(bool enforce_joint_limits) {
     node.body = dBodyCreate(world_);
     dMass mass;
     dMassSetZero(&mass);
-    const Eigen::Matrix3d& I = node.I_Com_N;
-    dMassSetParameters(&mass, node.mass_kg, 0.0, 0.0, 0.0, I(0, 0), I(1, 1), I(2, 2), I(0, 1),
+    // ODE needs mass on every body: a massless node gets a token 1 g with a 1e-6 kg m²
+    // inertia in ODE's own stepper only (the analytic queries skip massless nodes).
+    const bool massless = !(node.mass_kg > 0.0);
+    const double m = massless ? 1e-3 : node.mass_kg;
+    const Eigen::Matrix3d I = massless ? Eigen::Matrix3d(1e-6 * Eigen::Matrix3d::Identity())
+                                       : node.I_Com_N;
+    dMassSetParameters(&mass, m, 0.0, 0.0, 0.0, I(0, 0), I(1, 1), I(2, 2), I(0, 1),
                        I(0, 2), I(1, 2));
     dBodySetMass(node.body, &mass);
     const Eigen::Vector3d p = X_WN[n] * node.p_NCom;
@@ -205,12 +206,29 @@ void OdeWorld::createBodiesAndJoints(bool enforce_joint_limits) {
       dJointSetHingeAxis(node.joint, a.x(), a.y(), a.z());
     }
     if (enforce_joint_limits) setJointLimits(node);
+    if (node.follower) {
+      // The coupling in ODE's stepper: a motor on the follower's axis whose target
+      // velocity is set every step (OdeModel::simulateStep).
+      if (node.prismatic) {
+        node.mimic_motor = dJointCreateLMotor(world_, nullptr);
+        dJointAttach(node.mimic_motor, node.body, parent_body);
+        dJointSetLMotorNumAxes(node.mimic_motor, 1);
+        dJointSetLMotorAxis(node.mimic_motor, 0, parent_body ? 2 : 0, a.x(), a.y(), a.z());
+        dJointSetLMotorParam(node.mimic_motor, dParamFMax, dInfinity);
+      } else {
+        node.mimic_motor = dJointCreateAMotor(world_, nullptr);
+        dJointAttach(node.mimic_motor, node.body, parent_body);
+        dJointSetAMotorNumAxes(node.mimic_motor, 1);
+        dJointSetAMotorAxis(node.mimic_motor, 0, parent_body ? 2 : 0, a.x(), a.y(), a.z());
+        dJointSetAMotorParam(node.mimic_motor, dParamFMax, dInfinity);
+      }
+    }
   }
 }
 
 void OdeWorld::setJointLimits(const OdeNode& node) {
-  const double lower = joint_limits_[static_cast<std::size_t>(node.coordinate)].first;
-  const double upper = joint_limits_[static_cast<std::size_t>(node.coordinate)].second;
+  const double lower = node.lower;
+  const double upper = node.upper;
   if (node.prismatic) {
     if (std::isfinite(lower)) dJointSetSliderParam(node.joint, dParamLoStop, lower);
     if (std::isfinite(upper)) dJointSetSliderParam(node.joint, dParamHiStop, upper);
@@ -239,6 +257,9 @@ void OdeWorld::createRobotGeoms(const urdf::RobotDescription& robot) {
         case urdf::ShapeKind::kCylinder:  // both along the shape's z
           geom = dCreateCylinder(robot_space_, shape.radius_m, shape.length_m);
           break;
+        case urdf::ShapeKind::kConvexHull:
+          geom = createConvexGeom(shape.hull);
+          break;
       }
       if (geom == nullptr) continue;
       OdeGeomTag tag;
@@ -265,6 +286,23 @@ void OdeWorld::createRobotGeoms(const urdf::RobotDescription& robot) {
       }
     }
   }
+}
+
+dGeomID OdeWorld::createConvexGeom(const urdf::ConvexHull& hull) {
+  auto data = std::make_unique<ConvexData>();
+  for (const Eigen::Vector4d& p : hull.planes_S) data->planes.insert(data->planes.end(), p.data(), p.data() + 4);
+  for (const Eigen::Vector3d& v : hull.vertices_S)
+    data->points.insert(data->points.end(), v.data(), v.data() + 3);
+  for (const auto& face : hull.faces) {
+    data->polygons.push_back(static_cast<unsigned int>(face.size()));
+    for (const int i : face) data->polygons.push_back(static_cast<unsigned int>(i));
+  }
+  dGeomID geom = dCreateConvex(robot_space_, data->planes.data(),
+                               static_cast<unsigned int>(hull.planes_S.size()), data->points.data(),
+                               static_cast<unsigned int>(hull.vertices_S.size()),
+                               data->polygons.data());
+  convex_data_.push_back(std::move(data));
+  return geom;
 }
 
 void OdeWorld::createEnvironmentGeoms(const Environment& environment) {

@@ -2,6 +2,7 @@
 // Internal: an ODE world (bodies, joints, collision geoms) built from a RobotDescription
 // and an Environment.
 
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -40,13 +41,21 @@ struct OdeNode {
   dBodyID body = nullptr;     ///< null only for a fixed-base root: the world itself
   int parent = -1;            ///< parent node (nodes are parent-first), −1 for the root
   int link = -1;              ///< the carrier URDF link (the one whose frame N is)
-  int coordinate = -1;        ///< joint coordinate (0 ≤ c < nj), −1 for the root
+  int coordinate = -1;        ///< joint coordinate (0 ≤ c < nj) that drives the joint, −1
+                              ///< for the root; a mimic follower's is its leader's
+  double factor = 1.0;        ///< joint position = factor · q[coordinate] + offset
+  double offset = 0.0;        ///< (a mimic follower's multiplier and offset; 1 and 0 else)
+  bool follower = false;      ///< a mimic follower (passive: no torque of its own)
   bool prismatic = false;     ///< slider; otherwise hinge (revolute, continuous)
+  double lower = 0.0, upper = 0.0;  ///< the joint's own position limits
   dJointID joint = nullptr;   ///< hinge or slider, body 1 = this node, body 2 = parent
+  dJointID mimic_motor = nullptr;  ///< follower: angular or linear motor holding the coupling in dWorldStep
   Eigen::Isometry3d X_PJ = Eigen::Isometry3d::Identity();  ///< joint frame in parent's N
   Eigen::Vector3d axis_J = Eigen::Vector3d::UnitX();       ///< unit axis in J
   Eigen::Vector3d p_NCom = Eigen::Vector3d::Zero();        ///< body origin in N (m)
-  double mass_kg = 0.0;                                    ///< lumped mass
+  /// Lumped URDF mass. A massless node's ODE body gets a token mass for the stepper
+  /// (ODE needs one); the analytic queries skip it and use the URDF's zero.
+  double mass_kg = 0.0;
   Eigen::Matrix3d I_Com_N = Eigen::Matrix3d::Zero();       ///< about the CoM, N axes
 };
 
@@ -94,6 +103,7 @@ class OdeWorld {
   void setJointLimits(const OdeNode& node);
   void createRobotGeoms(const urdf::RobotDescription& robot);
   void createEnvironmentGeoms(const Environment& environment);
+  dGeomID createConvexGeom(const urdf::ConvexHull& hull);
 
   dWorldID world_ = nullptr;
   dSpaceID robot_space_ = nullptr;
@@ -102,9 +112,15 @@ class OdeWorld {
   std::vector<OdeNode> nodes_;
   std::vector<OdeLinkFrame> links_;
   std::vector<int> node_of_coordinate_;
-  std::vector<std::pair<double, double>> joint_limits_;  // (lower, upper) per coordinate
   bool fixed_root_ = false;
   std::vector<OdeGeomTag> geom_tags_;  // sized before any geom points at an entry
+  // Convex geoms keep pointers to their planes, points and polygons: one block per geom,
+  // never reallocated (a list of vectors).
+  struct ConvexData {
+    std::vector<dReal> planes, points;
+    std::vector<unsigned int> polygons;
+  };
+  std::vector<std::unique_ptr<ConvexData>> convex_data_;
   int max_depth_ = 1;
 };
 

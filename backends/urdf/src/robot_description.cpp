@@ -46,14 +46,43 @@ double RobotDescription::totalMass() const {
   return m;
 }
 
-void validateForDynamics(const RobotDescription& robot, bool floating_base) {
-  // Links on a moving joint (and a floating root) need mass and inertia; links welded by
-  // fixed joints may be massless frames (sensor or tool frames).
-  std::vector<char> moves(robot.links.size(), 0);
-  for (std::size_t i = 0; i < robot.links.size(); ++i) {
-    const int pj = robot.links[i].parent_joint;
-    moves[i] = pj < 0 ? floating_base : robot.joints[pj].moving();
+namespace {
+
+// Mass properties of a set of links at the zero configuration, about the root frame R.
+struct Composite {
+  double mass_kg = 0.0;
+  Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();  // Σ m c_R
+  Eigen::Matrix3d I_origin_R = Eigen::Matrix3d::Zero();    // about R's origin
+
+  void add(const InertialDesc& in, const Eigen::Isometry3d& X_RL) {
+    if (!(in.mass_kg > 0.0)) return;
+    const Eigen::Vector3d c = X_RL * in.p_LCom;
+    const Eigen::Matrix3d R = X_RL.linear();
+    mass_kg += in.mass_kg;
+    first_moment += in.mass_kg * c;
+    I_origin_R += R * in.I_Com_L * R.transpose() +
+                  in.mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
   }
+  // Kinetic energy ×2 of a unit-rate motion of the set about (revolute) or along
+  // (prismatic) the axis a through o.
+  double unitMotionInertia(bool prismatic, const Eigen::Vector3d& a, const Eigen::Vector3d& o) const {
+    if (prismatic) return mass_kg;
+    // I about o = I_origin − m(c·o terms): shift with the parallel-axis theorem via the CoM.
+    if (!(mass_kg > 0.0)) return 0.0;
+    const Eigen::Vector3d c = first_moment / mass_kg;
+    const Eigen::Matrix3d I_com =
+        I_origin_R - mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+    const Eigen::Vector3d d = c - o;
+    return a.dot(I_com * a) + mass_kg * a.cross(d).squaredNorm();
+  }
+};
+
+// Smallest moment of inertia (kg m²) or mass (kg) a joint's motion must move.
+constexpr double kMinMovedInertia = 1e-12;
+
+}  // namespace
+
+void validateForDynamics(const RobotDescription& robot, bool floating_base) {
   for (std::size_t i = 0; i < robot.links.size(); ++i) {
     const LinkDesc& link = robot.links[i];
     const InertialDesc& in = link.inertial;
@@ -62,15 +91,13 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
       throw ModelError(robot.source, link.line, label, "inertial values are not finite");
     if (in.mass_kg < 0.0)
       throw ModelError(robot.source, link.line, label, "negative mass");
-    if (!moves[i]) continue;
+    if (!(in.mass_kg > 0.0)) continue;  // massless: its inertia is not used
+    // A link with mass on a moving joint (or a floating root) needs a positive-definite
+    // rotational inertia (ODE's bodies assume one). Links welded by fixed joints (sensor
+    // and tool frames) are lumped into their carrier and may be point masses.
     const int pj = link.parent_joint;
-    const std::string where =
-        pj < 0 ? "the floating base" : "a link moved by joint \"" + robot.joints[pj].name + "\"";
-    if (!in.present)
-      throw ModelError(robot.source, link.line, label,
-                       "no <inertial> on " + where + " (mass and inertia are required)");
-    if (!(in.mass_kg > 0.0))
-      throw ModelError(robot.source, link.line, label, "zero mass on " + where);
+    const bool carrier = pj < 0 ? floating_base : robot.joints[static_cast<std::size_t>(pj)].moving();
+    if (!carrier) continue;
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(in.I_Com_L);
     const Eigen::Vector3d m = eig.eigenvalues();  // ascending
     if (!(m[0] > 0.0))
@@ -82,6 +109,69 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
                        "inertia violates the triangle inequality (principal moments " +
                            std::to_string(m[0]) + ", " + std::to_string(m[1]) + ", " +
                            std::to_string(m[2]) + " kg m²)");
+  }
+
+  // Every joint's motion must move mass, or A has a zero row. Evaluated at q = 0 in the
+  // root frame, per joint over its subtree; an independent joint passes when it or one of
+  // its mimic followers moves mass.
+  const std::vector<int> order = robot.linksParentFirst();
+  std::vector<Eigen::Isometry3d> X_RL(robot.links.size(), Eigen::Isometry3d::Identity());
+  for (const int l : order) {
+    const int pj = robot.links[static_cast<std::size_t>(l)].parent_joint;
+    if (pj < 0) continue;
+    const JointDesc& j = robot.joints[static_cast<std::size_t>(pj)];
+    X_RL[static_cast<std::size_t>(l)] = X_RL[static_cast<std::size_t>(j.parent_link)] * j.X_PJ;
+  }
+  // Subtree composites, children before parents.
+  std::vector<Composite> subtree(robot.links.size());
+  for (auto it = order.rbegin(); it != order.rend(); ++it) {
+    const auto l = static_cast<std::size_t>(*it);
+    subtree[l].add(robot.links[l].inertial, X_RL[l]);
+    const int pj = robot.links[l].parent_joint;
+    if (pj < 0) continue;
+    Composite& parent = subtree[static_cast<std::size_t>(robot.joints[static_cast<std::size_t>(pj)].parent_link)];
+    parent.mass_kg += subtree[l].mass_kg;
+    parent.first_moment += subtree[l].first_moment;
+    parent.I_origin_R += subtree[l].I_origin_R;
+  }
+  std::vector<char> moves_mass(robot.joints.size(), 0);
+  for (std::size_t j = 0; j < robot.joints.size(); ++j) {
+    const JointDesc& joint = robot.joints[j];
+    if (!joint.moving()) continue;
+    const Eigen::Isometry3d X_RJ = X_RL[static_cast<std::size_t>(joint.parent_link)] * joint.X_PJ;
+    const double moved = subtree[static_cast<std::size_t>(joint.child_link)].unitMotionInertia(
+        joint.type == JointType::kPrismatic, X_RJ.linear() * joint.axis_J, X_RJ.translation());
+    moves_mass[j] = moved > kMinMovedInertia;
+  }
+  for (const int f : robot.mimic_joints)
+    if (moves_mass[static_cast<std::size_t>(f)])
+      moves_mass[static_cast<std::size_t>(robot.joints[static_cast<std::size_t>(f)].mimic_leader)] = 1;
+  for (const int j : robot.moving_joints) {
+    const JointDesc& joint = robot.joints[static_cast<std::size_t>(j)];
+    if (moves_mass[static_cast<std::size_t>(j)]) continue;
+    const LinkDesc& child = robot.links[static_cast<std::size_t>(joint.child_link)];
+    throw ModelError(robot.source, joint.line, "joint \"" + joint.name + "\"",
+                     std::string(joint.type == JointType::kPrismatic
+                                     ? "moves no mass"
+                                     : "moves no mass or inertia about its axis") +
+                         ": link \"" + child.name +
+                         "\" and everything beyond it are massless (the mass matrix would be "
+                         "singular; give the links <inertial> data or lock the joint)");
+  }
+  if (floating_base) {
+    const Composite& all = subtree[static_cast<std::size_t>(robot.root_link)];
+    const LinkDesc& root = robot.links[static_cast<std::size_t>(robot.root_link)];
+    bool ok = all.mass_kg > 0.0;
+    if (ok) {
+      const Eigen::Vector3d c = all.first_moment / all.mass_kg;
+      const Eigen::Matrix3d I_com =
+          all.I_origin_R - all.mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+      ok = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I_com).eigenvalues()[0] > kMinMovedInertia;
+    }
+    if (!ok)
+      throw ModelError(robot.source, root.line, "link \"" + root.name + "\"",
+                       "the floating base carries no mass or no rotational inertia (the whole "
+                       "model is massless)");
   }
 }
 
@@ -107,6 +197,70 @@ ModelInfo makeModelInfo(const RobotDescription& robot, bool floating_base) {
   for (const auto& link : robot.links) info.body_names.push_back(link.name);
   info.total_mass = robot.totalMass();
   return info;
+}
+
+}  // namespace dynfilter::urdf
+
+namespace dynfilter::urdf {
+
+void lockJoints(RobotDescription& robot, const std::vector<JointLock>& locks) {
+  std::vector<char> locked(robot.joints.size(), 0);
+  std::vector<double> position(robot.joints.size(), 0.0);
+  for (const JointLock& lock : locks) {
+    const int j = robot.findJoint(lock.joint);
+    if (j < 0 || !robot.joints[static_cast<std::size_t>(j)].moving())
+      throw ModelError(robot.source, 0, "joint \"" + lock.joint + "\"",
+                       "cannot lock: not a moving joint of model \"" + robot.name + "\"");
+    locked[static_cast<std::size_t>(j)] = 1;
+    position[static_cast<std::size_t>(j)] = lock.position;
+  }
+  for (std::size_t j = 0; j < robot.joints.size(); ++j) {
+    const JointDesc& joint = robot.joints[j];
+    if (!locked[j] || !joint.mimics()) continue;
+    if (!locked[static_cast<std::size_t>(joint.mimic_leader)])
+      throw ModelError(robot.source, joint.line, "joint \"" + joint.name + "\"",
+                       "cannot lock a mimic follower without its leader \"" +
+                           robot.joints[static_cast<std::size_t>(joint.mimic_leader)].name + "\"");
+  }
+  // Followers of a locked leader are locked where the coupling puts them.
+  for (std::size_t j = 0; j < robot.joints.size(); ++j) {
+    const JointDesc& joint = robot.joints[j];
+    if (!joint.mimics() || !locked[static_cast<std::size_t>(joint.mimic_leader)]) continue;
+    locked[j] = 1;
+    position[j] = joint.mimic_multiplier * position[static_cast<std::size_t>(joint.mimic_leader)] +
+                  joint.mimic_offset;
+  }
+  for (std::size_t j = 0; j < robot.joints.size(); ++j) {
+    if (!locked[j]) continue;
+    JointDesc& joint = robot.joints[j];
+    const double q = position[j];
+    const bool limited = joint.type != JointType::kContinuous;
+    if (limited && (q < joint.lower - 1e-12 || q > joint.upper + 1e-12))
+      throw ModelError(robot.source, joint.line, "joint \"" + joint.name + "\"",
+                       "cannot lock at " + std::to_string(q) + ": outside its limits [" +
+                           std::to_string(joint.lower) + ", " + std::to_string(joint.upper) + "]");
+    if (joint.type == JointType::kPrismatic)
+      joint.X_PJ = joint.X_PJ * Eigen::Translation3d(joint.axis_J * q);
+    else
+      joint.X_PJ = joint.X_PJ * Eigen::AngleAxisd(q, joint.axis_J);
+    joint.type = JointType::kFixed;
+    joint.mimic_leader = -1;
+    joint.mimic_multiplier = 1.0;
+    joint.mimic_offset = 0.0;
+  }
+  robot.moving_joints.clear();
+  robot.mimic_joints.clear();
+  for (std::size_t j = 0; j < robot.joints.size(); ++j) {
+    JointDesc& joint = robot.joints[j];
+    joint.coordinate = -1;
+    if (!joint.moving()) continue;
+    if (joint.mimics()) {
+      robot.mimic_joints.push_back(static_cast<int>(j));
+      continue;
+    }
+    joint.coordinate = static_cast<int>(robot.moving_joints.size());
+    robot.moving_joints.push_back(static_cast<int>(j));
+  }
 }
 
 }  // namespace dynfilter::urdf

@@ -5,7 +5,10 @@
 
 #include <console_bridge/console.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <fnmatch.h>
+#include <filesystem>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -15,6 +18,7 @@
 #include <sstream>
 
 #include "dynfilter/core/errors.hpp"
+#include "mesh_hull.hpp"
 
 namespace dynfilter::urdf {
 namespace {
@@ -48,19 +52,21 @@ struct DocumentIndex {
   std::string robot_name;
   std::vector<std::string> link_names;
   std::vector<int> link_lines;
+  std::vector<std::vector<int>> collision_lines;  ///< per link: the line of each <collision>
   std::vector<std::string> joint_names;
   std::vector<int> joint_lines;
+  std::map<std::string, int> mimic_line;          ///< joint name → line of its <mimic>
   std::vector<std::string> warnings;
+  // Ignored elements by name: count and first line, in order of first appearance.
+  std::vector<std::string> ignored_order;
+  std::map<std::string, std::pair<int, int>> ignored;
 };
 
-// Elements the URDF format (and common extensions) allow; anything else is an error,
-// because a misspelt element would otherwise be silently ignored.
-const std::set<std::string> kRobotChildren{"link", "joint", "material", "gazebo",
-                                           "transmission", "ros2_control"};
-const std::set<std::string> kLinkChildren{"inertial", "visual", "collision"};
-const std::set<std::string> kJointChildren{"origin", "parent", "child", "axis", "limit",
-                                           "dynamics", "calibration", "mimic",
-                                           "safety_controller"};
+// Children whose content builds the model; every other element is ignored (simulator and
+// controller tags, visuals, extensions) and listed once in ignored_elements.
+const std::set<std::string> kRobotChildren{"link", "joint"};
+const std::set<std::string> kLinkChildren{"inertial", "collision"};
+const std::set<std::string> kJointChildren{"origin", "parent", "child", "axis", "limit", "mimic"};
 const std::set<std::string> kSupportedJointTypes{"revolute", "continuous", "prismatic", "fixed"};
 const std::set<std::string> kKnownUnsupportedJointTypes{"floating", "planar"};
 
@@ -89,19 +95,24 @@ DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
                        "missing the name attribute");
     return name;
   };
-  auto checkChildren = [&](const tinyxml2::XMLElement* e, const std::set<std::string>& allowed,
-                           const std::string& label) {
-    for (auto* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
-      if (!allowed.count(c->Name()))
-        throw ModelError(source, c->GetLineNum(), label,
-                         "unknown element <" + std::string(c->Name()) + ">");
-    }
+  auto ignore = [&](const tinyxml2::XMLElement* e, const std::string& parent) {
+    const std::string key = "<" + parent + "><" + e->Name() + ">";
+    auto [it, inserted] = index.ignored.emplace(key, std::make_pair(0, e->GetLineNum()));
+    if (inserted) index.ignored_order.push_back(key);
+    ++it->second.first;
+  };
+  auto ignoreOtherChildren = [&](const tinyxml2::XMLElement* e,
+                                 const std::set<std::string>& used) {
+    for (auto* c = e->FirstChildElement(); c; c = c->NextSiblingElement())
+      if (!used.count(c->Name())) ignore(c, e->Name());
   };
 
   for (auto* e = robot->FirstChildElement(); e; e = e->NextSiblingElement()) {
     const std::string tag = e->Name();
-    if (!kRobotChildren.count(tag))
-      throw ModelError(source, e->GetLineNum(), "<robot>", "unknown element <" + tag + ">");
+    if (!kRobotChildren.count(tag)) {
+      ignore(e, "robot");
+      continue;
+    }
     if (tag == "link") {
       const std::string name = requireName(e);
       const std::string label = "link " + quoted(name.c_str());
@@ -109,17 +120,16 @@ DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
         throw ModelError(source, e->GetLineNum(), label,
                          "duplicate link name (first defined on line " +
                              std::to_string(link_line[name]) + ")");
-      checkChildren(e, kLinkChildren, label);
+      ignoreOtherChildren(e, kLinkChildren);
+      std::vector<int> collisions;
       for (auto* c = e->FirstChildElement("collision"); c; c = c->NextSiblingElement("collision")) {
         const auto* geometry = c->FirstChildElement("geometry");
         const auto* shape = geometry ? geometry->FirstChildElement() : nullptr;
         if (shape == nullptr)
           throw ModelError(source, c->GetLineNum(), label, "<collision> without a geometry");
-        if (std::strcmp(shape->Name(), "mesh") == 0)
-          index.warnings.push_back(source + ":" + std::to_string(shape->GetLineNum()) + ": " +
-                                   label + ": mesh collision geometry is not supported; "
-                                   "the shape is ignored for collision");
+        collisions.push_back(shape->GetLineNum());
       }
+      index.collision_lines.push_back(std::move(collisions));
       link_line[name] = e->GetLineNum();
       index.link_names.push_back(name);
       index.link_lines.push_back(e->GetLineNum());
@@ -130,7 +140,7 @@ DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
         throw ModelError(source, e->GetLineNum(), label,
                          "duplicate joint name (first defined on line " +
                              std::to_string(joint_line[name]) + ")");
-      checkChildren(e, kJointChildren, label);
+      ignoreOtherChildren(e, kJointChildren);
       const char* type = e->Attribute("type");
       if (type == nullptr)
         throw ModelError(source, e->GetLineNum(), label, "missing the type attribute");
@@ -142,9 +152,13 @@ DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
         throw ModelError(source, e->GetLineNum(), label,
                          "unknown joint type " + quoted(type) +
                              " (supported: revolute, continuous, prismatic, fixed)");
-      if (e->FirstChildElement("mimic"))
-        throw ModelError(source, e->FirstChildElement("mimic")->GetLineNum(), label,
-                         "mimic joints are not supported");
+      if (const auto* mimic = e->FirstChildElement("mimic")) {
+        const char* leader = mimic->Attribute("joint");
+        if (leader == nullptr || *leader == '\0')
+          throw ModelError(source, mimic->GetLineNum(), label,
+                           "<mimic> without a joint attribute");
+        index.mimic_line[name] = mimic->GetLineNum();
+      }
       joint_line[name] = e->GetLineNum();
       index.joint_names.push_back(name);
       index.joint_lines.push_back(e->GetLineNum());
@@ -206,11 +220,17 @@ Eigen::Isometry3d toIsometry(const ::urdf::Pose& pose) {
 }
 
 RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentIndex index,
-                                  const std::string& source) {
+                                  const std::string& source, const UrdfLoadOptions& options,
+                                  const std::string& base_directory) {
   RobotDescription robot;
   robot.name = model.getName();
   robot.source = source;
   robot.warnings = std::move(index.warnings);
+  for (const auto& key : index.ignored_order) {
+    const auto& [count, line] = index.ignored.at(key);
+    robot.ignored_elements.push_back(key + " x" + std::to_string(count) + " (first at " +
+                                     source + ":" + std::to_string(line) + ")");
+  }
 
   std::map<std::string, int> link_index;
   for (std::size_t i = 0; i < index.link_names.size(); ++i) {
@@ -233,8 +253,11 @@ RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentI
       I_I << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
       desc.inertial.I_Com_L = X_LI.linear() * I_I * X_LI.linear().transpose();
     }
-    for (const auto& collision : link->collision_array) {
+    const std::vector<int>& collision_lines = index.collision_lines[i];
+    for (std::size_t k = 0; k < link->collision_array.size(); ++k) {
+      const auto& collision = link->collision_array[k];
       if (!collision || !collision->geometry) continue;
+      const int line = k < collision_lines.size() ? collision_lines[k] : desc.line;
       CollisionShapeDesc shape;
       shape.X_LS = toIsometry(collision->origin);
       switch (collision->geometry->type) {
@@ -255,8 +278,28 @@ RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentI
           shape.length_m = cyl.length;
           break;
         }
+        case ::urdf::Geometry::MESH: {
+          const auto& mesh = static_cast<const ::urdf::Mesh&>(*collision->geometry);
+          const std::string label = "link " + quoted(desc.name.c_str()) + " <mesh>";
+          const Eigen::Vector3d scale(mesh.scale.x, mesh.scale.y, mesh.scale.z);
+          // A mirrored scale (e.g. "1 -1 1", common for left/right parts) is fine: it is
+          // applied to the vertices before the hull, so no engine ever sees it (DART
+          // aborts on a mirrored MeshShape scale).
+          if (!scale.allFinite() || !(scale.cwiseAbs().minCoeff() > 0.0))
+            throw ModelError(source, line, label,
+                             "mesh scale must be finite and non-zero in every axis (a zero "
+                             "scale flattens the mesh)");
+          shape.kind = ShapeKind::kConvexHull;
+          try {
+            shape.mesh_path = resolveMeshUri(mesh.filename, base_directory, options.package_paths);
+            shape.hull = convexHullOfMesh(shape.mesh_path, scale);
+          } catch (const std::runtime_error& e) {
+            throw ModelError(source, line, label, e.what());
+          }
+          break;
+        }
         default:
-          continue;  // meshes: warned about in indexDocument
+          continue;
       }
       desc.collisions.push_back(shape);
     }
@@ -317,10 +360,60 @@ RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentI
                          "position limits must be finite with lower <= upper (lower " +
                              std::to_string(desc.lower) + ", upper " +
                              std::to_string(desc.upper) + ")");
-      desc.coordinate = static_cast<int>(robot.moving_joints.size());
-      robot.moving_joints.push_back(static_cast<int>(i));
+    }
+    if (joint->mimic) {
+      const int line = index.mimic_line.count(desc.name) ? index.mimic_line.at(desc.name) : desc.line;
+      const auto& mimic = *joint->mimic;
+      if (!desc.moving()) {
+        robot.warnings.push_back(source + ":" + std::to_string(line) + ": " + label +
+                                 ": <mimic> on a fixed joint is ignored");
+      } else {
+        const auto leader = std::find(index.joint_names.begin(), index.joint_names.end(),
+                                      mimic.joint_name);
+        if (leader == index.joint_names.end())
+          throw ModelError(source, line, label + " <mimic>",
+                           "leader joint " + quoted(mimic.joint_name.c_str()) + " is not defined");
+        if (!std::isfinite(mimic.multiplier) || !std::isfinite(mimic.offset))
+          throw ModelError(source, line, label + " <mimic>",
+                           "multiplier and offset must be finite");
+        desc.mimic_leader = static_cast<int>(leader - index.joint_names.begin());
+        desc.mimic_multiplier = mimic.multiplier;
+        desc.mimic_offset = mimic.offset;
+      }
     }
     robot.joints.push_back(std::move(desc));
+  }
+
+  // Mimic chains resolve to their first independent leader: q = k₂(k₁ q₀ + c₁) + c₂.
+  for (std::size_t j = 0; j < robot.joints.size(); ++j) {
+    JointDesc& follower = robot.joints[j];
+    if (!follower.mimics()) continue;
+    const int line = index.mimic_line.at(follower.name);
+    const std::string label = "joint " + quoted(follower.name.c_str()) + " <mimic>";
+    for (std::size_t steps = 0; robot.joints[static_cast<std::size_t>(follower.mimic_leader)].mimics(); ++steps) {
+      const JointDesc& mid = robot.joints[static_cast<std::size_t>(follower.mimic_leader)];
+      if (steps > robot.joints.size() || mid.mimic_leader == static_cast<int>(j))
+        throw ModelError(source, line, label, "mimic joints form a cycle");
+      follower.mimic_offset += follower.mimic_multiplier * mid.mimic_offset;
+      follower.mimic_multiplier *= mid.mimic_multiplier;
+      follower.mimic_leader = mid.mimic_leader;
+    }
+    const JointDesc& leader = robot.joints[static_cast<std::size_t>(follower.mimic_leader)];
+    if (static_cast<int>(j) == follower.mimic_leader)
+      throw ModelError(source, line, label, "a joint cannot mimic itself");
+    if (!leader.moving())
+      throw ModelError(source, line, label,
+                       "leader joint " + quoted(leader.name.c_str()) + " is fixed");
+  }
+  for (std::size_t j = 0; j < robot.joints.size(); ++j) {
+    JointDesc& desc = robot.joints[j];
+    if (!desc.moving()) continue;
+    if (desc.mimics()) {
+      robot.mimic_joints.push_back(static_cast<int>(j));
+      continue;
+    }
+    desc.coordinate = static_cast<int>(robot.moving_joints.size());
+    robot.moving_joints.push_back(static_cast<int>(j));
   }
 
   for (std::size_t j = 0; j < robot.joints.size(); ++j) {
@@ -334,7 +427,9 @@ RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentI
 
 }  // namespace
 
-RobotDescription loadUrdfString(const std::string& xml, const std::string& source_label) {
+RobotDescription loadUrdfString(const std::string& xml, const std::string& source_label,
+                                const UrdfLoadOptions& options,
+                                const std::string& base_directory) {
   DocumentIndex index = indexDocument(xml, source_label);
   CapturingOutputHandler handler;
   ::urdf::ModelInterfaceSharedPtr model;
@@ -347,16 +442,70 @@ RobotDescription loadUrdfString(const std::string& xml, const std::string& sourc
                      handler.first_error.empty() ? "urdfdom could not parse the model"
                                                  : "urdfdom: " + handler.first_error);
   }
-  return buildDescription(*model, std::move(index), source_label);
+  RobotDescription robot =
+      buildDescription(*model, std::move(index), source_label, options, base_directory);
+  if (!options.lock_joints.empty()) lockJoints(robot, resolveJointLocks(robot, options.lock_joints));
+  return robot;
 }
 
-RobotDescription loadUrdfFile(const std::string& path) {
+RobotDescription loadUrdfFile(const std::string& path, const UrdfLoadOptions& options) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ModelError(path, 0, "file", std::string("cannot open: ") + std::strerror(errno));
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw ModelError(path, 0, "file", "read error");
-  return loadUrdfString(text.str(), path);
+  return loadUrdfString(text.str(), path, options,
+                        std::filesystem::path(path).parent_path().string());
+}
+
+}  // namespace dynfilter::urdf
+
+namespace dynfilter::urdf {
+
+std::vector<JointLock> resolveJointLocks(const RobotDescription& robot,
+                                         const std::vector<std::string>& entries) {
+  std::vector<JointLock> locks;
+  auto lockAt = [&](int joint, double position) {
+    for (auto& l : locks)
+      if (l.joint == robot.joints[static_cast<std::size_t>(joint)].name) {
+        l.position = position;
+        return;
+      }
+    locks.push_back({robot.joints[static_cast<std::size_t>(joint)].name, position});
+  };
+  for (const std::string& entry : entries) {
+    std::size_t start = 0;
+    while (start <= entry.size()) {
+      const std::size_t comma = entry.find(',', start);
+      const std::string token =
+          entry.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+      start = comma == std::string::npos ? entry.size() + 1 : comma + 1;
+      if (token.empty()) continue;
+      const std::size_t eq = token.find('=');
+      const std::string pattern = token.substr(0, eq);
+      double position = 0.0;
+      if (eq != std::string::npos) {
+        const std::string value = token.substr(eq + 1);
+        char* end = nullptr;
+        position = std::strtod(value.c_str(), &end);
+        if (value.empty() || end == nullptr || *end != '\0' || !std::isfinite(position))
+          throw ModelError(robot.source, 0, "--lock-joints",
+                           "\"" + token + "\": the position after '=' is not a number");
+      }
+      bool matched = false;
+      for (std::size_t j = 0; j < robot.joints.size(); ++j) {
+        const JointDesc& joint = robot.joints[j];
+        if (!joint.moving() || fnmatch(pattern.c_str(), joint.name.c_str(), 0) != 0) continue;
+        lockAt(static_cast<int>(j), position);
+        matched = true;
+      }
+      if (!matched)
+        throw ModelError(robot.source, 0, "--lock-joints",
+                         "\"" + pattern + "\" matches no moving joint of model \"" +
+                             robot.name + "\"");
+    }
+  }
+  return locks;
 }
 
 }  // namespace dynfilter::urdf

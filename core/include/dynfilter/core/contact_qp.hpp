@@ -70,6 +70,22 @@ struct ContactQpReport {
   std::uint32_t violated_first = kQpFamilyNone;  ///< families the first (full) attempt violated
 };
 
+/// Weighted objective rows beyond the paper's (the balance layer's tasks, balance.hpp):
+/// the QP adds ½ Σ_i w_i (T_i x − r_i)² over the first `rows` rows, x = (v̇, τ_C).
+/// Columns past nv + N_C of T are ignored. Sized once (capacity rows × (nv + 6·max_links)).
+struct QpObjectiveTasks {
+  Eigen::MatrixXd T;  ///< capacity × (nv + 6·max_links)
+  Eigen::VectorXd r;  ///< capacity
+  Eigen::VectorXd w;  ///< capacity, ≥ 0
+  int rows = 0;       ///< rows in use this tick
+
+  QpObjectiveTasks() = default;
+  QpObjectiveTasks(int capacity, int columns)
+      : T(Eigen::MatrixXd::Zero(capacity, columns)),
+        r(Eigen::VectorXd::Zero(capacity)),
+        w(Eigen::VectorXd::Zero(capacity)) {}
+};
+
 class ContactQp {
  public:
   /// Makes one solver per size class with @p factory. Throws std::invalid_argument when
@@ -94,6 +110,10 @@ class ContactQp {
                         Eigen::Ref<Eigen::VectorXd> vdot, Eigen::Ref<Eigen::VectorXd> tau_C,
                         Eigen::Ref<Eigen::VectorXd> tau_J);
 
+  /// The next solves add these rows to the objective (nullptr: none). Not owned; must
+  /// outlive the solves that use it.
+  void setObjectiveTasks(const QpObjectiveTasks* tasks) { tasks_ = tasks; }
+
   /// Checks a candidate (v̇, τ_C, τ_J) against Eq. 12 and the bounds built by the last
   /// solve() (the QP's own answer, or a fallback's). Returns the violated families' bits.
   std::uint32_t check(const Eigen::Ref<const Eigen::MatrixXd>& A,
@@ -114,7 +134,11 @@ class ContactQp {
   void buildJointBounds(const Eigen::Ref<const Eigen::VectorXd>& q,
                         const Eigen::Ref<const Eigen::VectorXd>& v);
 
+  // Adds the objective tasks' rows to H and g (balance layer; not part of the paper's QP).
+  void addObjectiveTasks(DenseQp& qp, int nc) const;
+
   QpModeOptions options_;
+  const QpObjectiveTasks* tasks_ = nullptr;
   double dt_s_;
   int nv_, nb_, nj_, max_links_;
   std::vector<std::unique_ptr<SizeClass>> classes_;

@@ -20,6 +20,7 @@
 
 #include <Eigen/Core>
 
+#include "dynfilter/core/balance.hpp"
 #include "dynfilter/core/constrained_dynamics.hpp"
 #include "dynfilter/core/contact_qp.hpp"
 #include "dynfilter/core/contact.hpp"
@@ -56,10 +57,23 @@ class DynamicsFilter {
   /// replaced by the last valid one and flagged in the status.
   const FilterOutput& step(const ReferenceFrame& reference);
 
+  /// Look-ahead (QP mode with the balance layer): hands the filter a reference frame of
+  /// the future, ahead of the ticks and in time order (offline: the clip's frames up to
+  /// balance.preview_s ahead; on-line: every frame as it arrives). Poses the model; call
+  /// between ticks. Returns false when there is no balance layer or the frame is invalid.
+  /// No allocation.
+  bool previewFrame(const ReferenceFrame& frame);
+
+  /// The balance layer's quantities of the last tick (nullptr without the layer).
+  const BalanceState* balance() const { return balance_ ? &balance_->state() : nullptr; }
+
   const FilterOutput& output() const { return out_; }
   const Eigen::VectorXd& q() const { return q_; }
   const Eigen::VectorXd& v() const { return v_; }
   const FilterOptions& options() const { return options_; }
+  /// Body that carries the task point P (the configured task.body, or the one chosen from
+  /// the model when task.body is empty); −1 when the task is disabled.
+  int taskBody() const { return task_body_; }
   const VirtualLinkSet& links() const { return links_; }
 
  private:
@@ -87,6 +101,8 @@ class DynamicsFilter {
   ContactList candidates_;
   PaperSolver solver_;
   std::unique_ptr<ContactQp> contact_qp_;  // QP mode only
+  std::unique_ptr<BalanceLayer> balance_;  // QP mode with balance.enabled, floating base
+  QpObjectiveTasks balance_tasks_;
   ConstrainedDynamics constrained_;
   FilterOutput out_;
 

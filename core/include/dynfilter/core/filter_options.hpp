@@ -4,6 +4,7 @@
 /// 1 kHz control rate and on 120 Hz mocap offline; every number is in SI units.
 
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -24,7 +25,10 @@ struct JointFeedbackGains {
 /// Task feedback of a point P on the upper body (Eq. 18–20).
 struct TaskPointOptions {
   bool enabled = true;
-  std::string body = "torso";                                   ///< link of P
+  /// Link of P; empty: chosen from the model's structure (chooseTrunkBody in
+  /// kinematic_tree.hpp: the trunk, e.g. the torso that carries the arms), see
+  /// DynamicsFilter::taskBody().
+  std::string body;
   Eigen::Vector3d p_BP = Eigen::Vector3d(0.0, 0.0, 0.3);         ///< P in that link (m)
   double kp_linear = 100.0, kd_linear = 20.0;    ///< 1/s², 1/s
   double kp_angular = 100.0, kd_angular = 20.0;  ///< 1/s², 1/s
@@ -119,6 +123,46 @@ struct DivergenceOptions {
   int max_degraded_ticks = 200;
 };
 
+/// A body whose sole the balance layer keeps flat on the ground while it is in contact.
+struct SoleOptions {
+  std::string body;                                           ///< URDF link name
+  Eigen::Vector3d n_B = Eigen::Vector3d::UnitZ();             ///< sole normal, body frame
+};
+
+/// The balance layer (QP mode, beyond the paper; balance.hpp): a centroidal task that the
+/// whole-body QP tracks above the joint tracking of Eq. 17. The desired CoM acceleration
+/// comes from divergent-component-of-motion (DCM, capture point) feedback towards a DCM
+/// computed over the reference's future with its centre of pressure kept in its support.
+struct BalanceOptions {
+  bool enabled = true;
+  /// Weight of the CoM acceleration rows (per (m/s²)², against 1 per (rad/s²)² of Eq. 17).
+  double com_weight = 100.0;
+  /// DCM feedback gain k: CoP command p = p_d + (1 + k)(ξ − ξ_d) (dimensionless).
+  double dcm_gain = 2.0;
+  /// CoM height feedback (1/s², 1/s).
+  double height_kp = 100.0, height_kd = 20.0;
+  /// Centroidal angular momentum damping L̇ = −k L (1/s) and the weight of its rows
+  /// (per (N m)²).
+  double angular_momentum_damping = 10.0;
+  double angular_momentum_weight = 0.0;
+  /// Look-ahead: the reference frames up to this far ahead of the tick enter the DCM
+  /// (s, ≥ 0; the real-time process's reference delay, 50 ms, is its natural minimum).
+  double preview_s = 0.05;
+  /// Future reference frames kept (count).
+  int preview_capacity = 512;
+  /// A reference body point this close to the ground (m) and slower than stance_speed
+  /// along the surface (m/s) supports the reference: the support polygon of its centre of
+  /// pressure, and the contact schedule of the virtual links.
+  double stance_height_m = 0.02;
+  double stance_speed_mps = 0.5;
+  /// Soles kept flat on the ground while their body holds a contact (feet).
+  std::vector<SoleOptions> soles;
+  double sole_weight = 10.0;            ///< per (rad/s²)²
+  /// A held sole's points this close to the surface join its link (m): it becomes a face.
+  double sole_margin_m = 0.005;
+  double sole_kp = 400.0, sole_kd = 40.0;  ///< 1/s², 1/s
+};
+
 struct FilterOptions {
   double dt_s = 1e-3;  ///< control tick (s)
   FilterMode mode = FilterMode::kPaper;
@@ -128,6 +172,7 @@ struct FilterOptions {
   ContactOptions contacts;
   PaperSolverOptions solver;
   DivergenceOptions divergence;
+  BalanceOptions balance;
 
   /// Throws std::invalid_argument naming the option when a value is out of range.
   void validate() const;

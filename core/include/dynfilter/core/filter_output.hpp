@@ -31,6 +31,10 @@ enum FilterStatusBits : std::uint32_t {
   /// QP mode: the full QP was infeasible; this tick's answer is that of a relaxation
   /// (FilterOutput::qp_relaxation; FilterOutput::qp_violated says what the full QP violated).
   kStatusQpRelaxed = 1u << 9,
+  /// The reference cannot be followed physically (FilterOutput::infeasible_reason, e.g.
+  /// hanging in the air); the filter keeps its physical state and does not re-seed on
+  /// tracking errors while this lasts.
+  kStatusReferenceInfeasible = 1u << 10,
 };
 
 /// Why the state was re-seeded from the reference (with kStatusReseeded).
@@ -95,6 +99,12 @@ struct FilterOutput {
   double tick_time_s = 0.0;      ///< the whole tick
   double max_penetration_m = 0.0;
   ReseedReason reseed_reason = ReseedReason::kNone;  ///< this tick's, with kStatusReseeded
+  /// With kStatusReferenceInfeasible: why (InfeasibleReason of balance.hpp; 0 none).
+  int infeasible_reason = 0;
+  /// QP mode with the balance layer: centre of mass of the filtered state and of the
+  /// reference (world, m), before the tick.
+  Eigen::Vector3d com_W = Eigen::Vector3d::Zero();
+  Eigen::Vector3d com_reference_W = Eigen::Vector3d::Zero();
   // QP mode (FilterMode::kQp); zero in paper mode.
   int qp_status = 0;                ///< QpSolveStatus of this tick's solve (0 solved)
   int qp_iterations = 0;            ///< solver iterations this tick

@@ -50,6 +50,9 @@ struct VirtualLink {
   double normal_force_n = 0.0;  ///< normal force of the last solve (N)
   /// QP mode release ramp: started when the reference lifts the contact point off.
   bool releasing = false;
+  /// The reference's contact schedule says this body is in stance (QP mode with the
+  /// balance layer): a low normal force alone does not release the link then.
+  bool reference_stance = false;
   double release_elapsed_s = 0.0;
   double release_start_force_n = 0.0;
 };
@@ -92,8 +95,17 @@ class VirtualLinkSet {
 
   /// QP mode: with @p model posed at the reference state, starts the release ramp of every
   /// held link whose contact point there lies more than @p clearance_m above its anchor
-  /// (along the anchor's normal). Returns the number of ramps started.
+  /// (along the anchor's normal). Returns the number of ramps started. A pair released
+  /// while the reference lifts it does not re-engage (even when it penetrates) until the
+  /// reference brings that point back within clearance_m / 2 of where it was held.
   int startLiftoffReleases(const IDynamicsModel& model, double clearance_m);
+
+  /// The reference's contact schedule (QP mode with the balance layer), bit b set when
+  /// the reference has body b in stance (b < 64; higher bodies count as in stance):
+  /// held links of bodies out of stance start their release ramp; links in stance are
+  /// not released for a low force alone; a released pair whose body the reference holds
+  /// out of stance does not re-engage on penetration. Replaces startLiftoffReleases.
+  void applyReferenceSchedule(std::uint64_t stance_bodies);
 
   /// Upper bound on link @p i's normal force this tick: +∞, or during a release ramp the
   /// force at the ramp's start decreasing linearly to @p min_force_n over @p transition_s.
@@ -111,6 +123,11 @@ class VirtualLinkSet {
   struct ReleasedPair {
     int body;
     int object;
+    // Where the link was (for the reference's clearance) and whether the reference still
+    // holds that contact point lifted: then the pair does not re-engage on penetration.
+    Eigen::Isometry3d X_BC = Eigen::Isometry3d::Identity();
+    Eigen::Isometry3d X_WA = Eigen::Isometry3d::Identity();
+    bool reference_lifted = false;
   };
   int findLink(int body, int object) const;
   bool isReleased(int body, int object) const;

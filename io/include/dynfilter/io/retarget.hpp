@@ -1,42 +1,61 @@
 #pragma once
 /// @file
-/// Retargeting BVH motion capture onto the human figure (models/human_figure.urdf): a
-/// mapping file says which BVH joint drives which figure link, and retargetBvh() turns the
-/// clip into a ReferenceMotion of the figure.
+/// Retargeting BVH motion capture onto any floating-base URDF model: a mapping file says
+/// which BVH joint drives which model link, and retargetBvh() turns the clip into a
+/// ReferenceMotion of the model. No link or joint name is known to the code: the joint
+/// groups come from the model's kinematic tree (kinematicTreeOf, core) between mapped links.
 ///
-/// Method (per frame):
-///  - World rotations of the BVH joints (bvhForwardKinematics), converted to the figure's
+/// Common to both modes (per frame):
+///  - World rotations of the BVH joints (bvhForwardKinematics), converted to the model's
 ///    axes (Z up, X forward, Y left) by R_conv (rows: the BVH's forward, left and up axes).
 ///  - Every mapped segment s gets the world rotation R_s = R_conv · R_bvh(j_s) · C_s. The
 ///    calibration C_s = R_conv⁻¹ · A_s is fixed per clip from the BVH rest pose (all
-///    rotations zero): A_s is the minimal rotation taking the figure's bone direction of s
-///    at q = 0 (−z for limbs, +x for the foot, +z for torso and head) onto the BVH's rest
-///    bone (the offset from j_s to its bone end, converted). So a BVH whose rest posture
-///    already has the figure's bone directions maps its rest posture to q = 0, and a T-pose
-///    rest maps to arms raised sideways. With `align: false` A_s = I (the BVH rest
-///    orientation of the joint counts as the figure's q = 0 orientation).
+///    rotations zero): A_s is the minimal rotation taking the model's bone direction of s
+///    at q = 0 (`figure_bone`, link frame; default −z, a limb hanging down) onto the BVH's
+///    rest bone (the offset from j_s to its bone end, converted). So a BVH whose rest
+///    posture already has the model's bone directions maps its rest posture to q = 0, and a
+///    T-pose rest maps to arms raised sideways. With `align: false` A_s = I (the BVH rest
+///    orientation of the joint counts as the model's q = 0 orientation).
 ///  - Hinge twist: the minimal rotation leaves a thigh's or upper arm's twist about its
-///    bone arbitrary, so the BVH's knee / elbow may bend out of the figure's hinge plane.
-///    With `hinge_twist` (default) the twist of A_s is chosen instead so that the mean
-///    direction in which the child bone (shank, forearm) deflects from the parent's bone
-///    over the whole clip becomes the figure's flexion direction (knee −x, elbow +x); kept
-///    from the rest pose when the mean deflection is below 10°.
-///  - Each joint group of the figure (waist, neck, hips, knees, ankles, shoulders, elbow +
-///    forearm yaw, wrists) gets the relative rotation R_parent⁻¹ R_child of its two
-///    segments, decomposed into the group's chain of axes (read from the model): three axes
-///    by the Tait–Bryan decomposition in chain order (intrinsic), two axes by the
-///    three-axis decomposition completed with the missing axis (dropped) last or in the
-///    middle, whichever reproduces the child's bone direction better (for elbow + forearm
-///    yaw: the hinge angle of the forearm direction projected on the hinge plane, the
-///    remaining twist as forearm yaw), one axis by
-///    the least-squares angle about it. Angles in [−π, π]; of the two three-axis solutions
-///    (α, β, γ) and (α + π, π − β, γ + π) the one nearer to the previous frame is taken.
-///  - Base: position = mid-point of the BVH joints driving l_thigh and r_thigh (hip
-///    centres; the root joint when they are not mapped), converted, plus a vertical offset
-///    so that the lowest point of the figure over the first `ground_frames` frames touches
-///    the model's environment (standingBaseHeight); orientation = that of the root segment.
-///  - Joints outside the model's limits are reported (JointLimitReport), and clamped only
-///    with clamp_to_limits. Velocities and accelerations by estimateDerivatives().
+///    bone arbitrary, so the BVH's knee / elbow may bend out of the model's hinge plane. A
+///    segment with `flexion: [x, y, z]` (link frame: the direction into which its one mapped
+///    child segment's bone deflects when the hinge flexes, e.g. knee −x, elbow +x) gets the
+///    twist of A_s chosen so that the mean direction in which the child bone deflects from
+///    the segment's bone over the whole clip becomes that direction; kept from the rest
+///    pose when the mean deflection is below 10° or with `hinge_twist: false`.
+///  - Base: position = mean of the BVH joints listed in `root.position` (e.g. the two hip
+///    centres; default the root joint), converted, plus a vertical offset so that the
+///    lowest point of the model over the first `ground_frames` frames touches the model's
+///    environment (standingBaseHeight).
+///
+/// `mode: chain` (default; the per-chain decomposition): each mapped segment C and its
+/// nearest mapped ancestor P form a joint group, the moving joints between them (at most
+/// three, with axis-aligned axes in P's frame at q = 0). The relative rotation
+/// R_P⁻¹ R_C is decomposed into the group's chain of axes: three axes by the Tait–Bryan
+/// decomposition in chain order (intrinsic), two axes by the three-axis decomposition
+/// completed with the missing axis (dropped) last or in the middle, whichever reproduces
+/// the child's bone direction better, one axis by the least-squares angle about it.
+/// Angles in [−π, π]; of the two three-axis solutions (α, β, γ) and (α + π, π − β, γ + π)
+/// the one inside the joint limits is taken, or when both (or neither) are, the one nearer
+/// to the previous frame (this keeps a shoulder on its limited branch through its Euler
+/// singularity). Base orientation = that of the root segment.
+///
+/// `mode: ik`: per frame, targets for the mapped links — the point `offset_xyz` of link s
+/// (link frame) at the BVH joint j_s's position, relative to the base position and scaled
+/// to the robot (`ik.scale`; 0: auto, the ratio of the model's leg length to the BVH's:
+/// the vertical distance from the base position point to the lowest mapped link at q = 0,
+/// over the same distance between the corresponding BVH joints in the rest pose), and the
+/// orientation R_s · R_offset (`offset_rpy`) — are met in the weighted least-squares sense
+/// (`position_weight`, `orientation_weight`) within the joint limits by PoseIk (damped
+/// least squares with bounds, warm-started from the previous frame), with the model's
+/// Jacobians. The root link's target is the base pose itself. Per-target errors are
+/// reported (RetargetResult::targets). Stance feet are put on the ground by the clean-up
+/// (reference_cleanup.hpp), which dynfilter-bvh2ref runs by default.
+///
+/// Joints of the model between no two mapped links are unmapped: an error unless
+/// `allow_unmapped: true` (they are then held at their neutral value, 0 clamped into the
+/// limits). Joints outside the model's limits are reported (JointLimitReport), and clamped
+/// only with clamp_to_limits. Velocities and accelerations by estimateDerivatives().
 
 #include <string>
 #include <vector>
@@ -47,24 +66,42 @@
 #include "dynfilter/core/dynamics_model.hpp"
 #include "dynfilter/io/bvh.hpp"
 #include "dynfilter/io/input_error.hpp"
+#include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/reference_motion.hpp"
 
 namespace dynfilter::io {
 
-/// One figure link driven by one BVH joint.
+/// One model link driven by one BVH joint.
 struct RetargetSegment {
-  std::string link;      ///< figure link, e.g. "l_thigh"
+  std::string link;      ///< model link, e.g. "l_thigh"
   std::string bvh;       ///< BVH joint whose world rotation drives it, e.g. "LeftUpLeg"
   std::string bone_end;  ///< BVH joint (or "<name>_end" End Site) at the far end of the
                          ///< bone; empty: first descendant (first-child chain) with a
                          ///< nonzero OFFSET
   bool align = true;     ///< calibrate the rest bone direction (see file comment)
-  bool hinge_twist = true;  ///< thighs and upper arms: twist about the bone from the knee /
-                            ///< elbow hinge plane seen in the clip (see file comment)
-  bool has_figure_bone = false;
-  Eigen::Vector3d figure_bone = Eigen::Vector3d::Zero();  ///< override of the figure's
-                                                          ///< bone direction (link frame)
+  bool hinge_twist = true;  ///< with has_flexion: twist about the bone from the hinge plane
+                            ///< seen in the clip (see file comment)
+  /// The model's bone direction at q = 0 (link frame, unit).
+  Eigen::Vector3d figure_bone = -Eigen::Vector3d::UnitZ();
+  bool has_flexion = false;
+  /// Hinge: direction (link frame, unit) of the child segment's bone deflection on flexion.
+  Eigen::Vector3d flexion = Eigen::Vector3d::Zero();
+  /// IK: the point of the link at the BVH joint (link frame, m).
+  Eigen::Vector3d offset_xyz = Eigen::Vector3d::Zero();
+  /// IK: orientation target R_s · R_offset (R_offset from `offset_rpy`, URDF rpy, rad).
+  Eigen::Matrix3d R_offset = Eigen::Matrix3d::Identity();
+  double position_weight = 1.0;     ///< IK: weight of the position error (1/m)
+  double orientation_weight = 0.0;  ///< IK: weight of the orientation error (1/rad)
   int line = 0;          ///< 1-based line in the mapping file
+};
+
+enum class RetargetMode { kChain, kIk };
+
+/// IK mode settings (mapping key `ik`).
+struct RetargetIkOptions {
+  double scale = 0.0;          ///< BVH → robot length ratio; 0: auto (see file comment)
+  int max_iterations = 50;     ///< per frame
+  double posture_weight = 0.01;  ///< pull of every joint towards its neutral value (1/rad)
 };
 
 /// A mapping file (YAML), e.g.
@@ -73,13 +110,18 @@ struct RetargetSegment {
 ///     skip_frames: 1
 ///     up_axis: +y
 ///     bvh_forward: +z
-///     root: {bvh: Hips, link: pelvis}
+///     root: {bvh: Hips, link: pelvis, position: [LeftUpLeg, RightUpLeg]}
 ///     segments:
-///       - {link: l_thigh, bvh: LeftUpLeg}
-///       - {link: l_foot, bvh: LeftFoot, align: false}
+///       - {link: l_thigh, bvh: LeftUpLeg, flexion: [-1, 0, 0]}
+///       - {link: l_foot, bvh: LeftFoot, align: false, figure_bone: [1, 0, 0]}
 ///
-/// Optional keys: `ground_frames` (default 30), `smoothing_window` (7),
-/// `clamp_to_limits` (false); per segment `bone_end`, `align`, `figure_bone: [x, y, z]`.
+/// Optional keys: `mode` (chain or ik), `ik: {scale, max_iterations, posture_weight}`,
+/// `allow_unmapped` (false), `ground_frames` (default 30), `smoothing_window` (7),
+/// `clamp_to_limits` (false), `cleanup` (ReferenceCleanupOptions, reference_cleanup.hpp);
+/// `root.offset_xyz` (IK: the point of the root link at the base position); per segment
+/// `bone_end`, `align`, `figure_bone: [x, y, z]`, `flexion: [x, y, z]`, `hinge_twist`,
+/// `offset_xyz: [x, y, z]`, `offset_rpy: [r, p, y]`, `position_weight`,
+/// `orientation_weight`.
 struct RetargetMapping {
   std::string source;
   double length_scale = 1.0;  ///< BvhReadOptions::length_scale
@@ -88,7 +130,13 @@ struct RetargetMapping {
   std::string bvh_forward = "+z";  ///< the BVH axis the figure's +X (forward) is
   std::string root_bvh = "Hips";
   std::string root_link = "pelvis";
+  std::vector<std::string> root_position;  ///< BVH joints averaged for the base position
+  Eigen::Vector3d root_offset_xyz = Eigen::Vector3d::Zero();  ///< IK (root link frame, m)
   std::vector<RetargetSegment> segments;
+  RetargetMode mode = RetargetMode::kChain;
+  RetargetIkOptions ik;
+  bool allow_unmapped = false;
+  ReferenceCleanupOptions cleanup;  ///< `cleanup` section (used by dynfilter-bvh2ref)
   int ground_frames = 30;     ///< frames over which the lowest point is put on the ground
   int smoothing_window = 7;   ///< for estimateDerivatives
   bool clamp_to_limits = false;
@@ -110,6 +158,15 @@ struct JointLimitReport {
   double worst_excess_rad = 0.0;  ///< largest distance beyond a limit (0 when none)
   int worst_frame = -1;           ///< output frame index of the worst excess
   double min_rad = 0.0, max_rad = 0.0;  ///< range of the retargeted angle
+  double excess_rms_rad = 0.0;    ///< RMS over frames of the distance beyond a limit
+};
+
+/// How well one IK target was met over the clip.
+struct TargetReport {
+  std::string link;
+  double position_rms_m = 0.0, position_max_m = 0.0;
+  double orientation_rms_rad = 0.0, orientation_max_rad = 0.0;
+  bool has_position = false, has_orientation = false;
 };
 
 struct RetargetResult {
@@ -119,13 +176,18 @@ struct RetargetResult {
   Eigen::Matrix3d axis_conversion = Eigen::Matrix3d::Identity();
   int first_bvh_frame = 0;   ///< BVH frame of output frame 0 (= skip_frames)
   bool clamped = false;      ///< values were clamped into the limits
-  std::vector<std::string> unmapped_joints;  ///< joints left at 0 (segment not mapped)
+  std::vector<std::string> unmapped_joints;  ///< joints between no two mapped links
+  std::vector<TargetReport> targets;  ///< IK mode: one per mapped link with a target
+  double ik_scale = 1.0;              ///< IK mode: the length scale used
 };
 
-/// Retargets @p bvh (read with mapping.length_scale, all frames kept) onto @p model (the
-/// human figure or a model with its link and joint names). Changes the model's state.
-/// @throws InputError naming the mapping file and line on a BVH joint or figure link that
-///         does not exist; std::invalid_argument when fewer than 2 frames remain.
+/// Retargets @p bvh (read with mapping.length_scale, all frames kept) onto @p model (any
+/// floating-base model; its kinematics are used in both modes). Changes the model's state.
+/// @throws InputError naming the mapping file and line on a BVH joint or model link that
+///         does not exist, on a link that is not below the root link, on joints left
+///         unmapped (naming them) without allow_unmapped, and in chain mode on a group of
+///         more than three joints or with axes that are not axis-aligned (use mode: ik);
+///         std::invalid_argument when fewer than 2 frames remain.
 RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
                            IDynamicsModel& model);
 
@@ -140,6 +202,9 @@ void writeReferenceMotionCsv(const std::string& path, const ModelInfo& info,
 
 /// Human-readable limit report: one line per joint outside its limits, then a summary.
 std::string formatLimitReport(const RetargetResult& result);
+
+/// Human-readable IK target report: per link position / orientation RMS and max.
+std::string formatTargetReport(const RetargetResult& result);
 
 /// Angles θ of R = R_{a0}(θ0) · R_{a1}(θ1) · R_{a2}(θ2) for 1 to 3 distinct axis-aligned
 /// unit axes (±x, ±y, ±z). Three axes: Tait–Bryan, middle angle in [−π/2, π/2]. Two axes:

@@ -46,7 +46,8 @@ class RealtimeFilter {
 
   /// A validated reference frame; frame.time_s is on the sender's clock (s). @p now_s is
   /// the local clock at reception. Returns false (counted as rejected) when its time is
-  /// not after the newest frame's.
+  /// not after the newest frame's. An accepted frame also enters the filter's preview
+  /// (DynamicsFilter::previewFrame): the reference delay is the balance layer's look-ahead.
   bool addReference(const ReferenceFrame& frame, double now_s);
 
   /// A validated measured state (q: nq, v: nv) received at @p now_s.

@@ -24,14 +24,26 @@ struct InertialDesc {
   Eigen::Matrix3d I_Com_L = Eigen::Matrix3d::Zero();  ///< inertia about the CoM, L axes (kg m²)
 };
 
-enum class ShapeKind { kBox, kSphere, kCylinder };
+enum class ShapeKind { kBox, kSphere, kCylinder, kConvexHull };
 
-/// A collision primitive attached to a link. Cylinders have their axis along the shape's z.
+/// The convex hull of a collision mesh, in the shape frame S, scale applied (m).
+struct ConvexHull {
+  std::vector<Eigen::Vector3d> vertices_S;
+  /// Faces as vertex-index loops, counter-clockwise seen from outside.
+  std::vector<std::vector<int>> faces;
+  /// One plane per face: n · p = d, n the unit outward normal (n = xyz, d = w).
+  std::vector<Eigen::Vector4d> planes_S;
+};
+
+/// A collision shape attached to a link. Cylinders have their axis along the shape's z.
+/// A URDF <mesh> becomes the convex hull of its vertices (kConvexHull).
 struct CollisionShapeDesc {
   ShapeKind kind = ShapeKind::kBox;
   Eigen::Vector3d box_size_m = Eigen::Vector3d::Zero();   ///< full edge lengths (box)
   double radius_m = 0.0;                                  ///< sphere, cylinder
   double length_m = 0.0;                                  ///< cylinder
+  ConvexHull hull;                                        ///< kConvexHull
+  std::string mesh_path;                                  ///< kConvexHull: the resolved file
   Eigen::Isometry3d X_LS = Eigen::Isometry3d::Identity(); ///< shape pose in the link frame
 };
 
@@ -58,9 +70,18 @@ struct JointDesc {
   double upper = 0.0;          ///< rad or m; +inf for continuous
   double velocity_max = 0.0;   ///< +inf when the URDF gives none (or 0)
   double effort_max = 0.0;     ///< +inf when the URDF gives none (or 0)
-  int coordinate = -1;         ///< index among the moving joints (nj), −1 for fixed
+  int coordinate = -1;         ///< index among the independent moving joints (nj), −1 for
+                               ///< fixed joints and mimic followers
+  /// A mimic follower (URDF <mimic>): q = mimic_multiplier · q_leader + mimic_offset, with
+  /// mimic_leader the independent joint it follows (chains of mimics are resolved to
+  /// their first leader). −1 when the joint is independent. Followers carry no
+  /// coordinate and no actuator: the coupling's force acts on the leader.
+  int mimic_leader = -1;
+  double mimic_multiplier = 1.0;
+  double mimic_offset = 0.0;    ///< rad or m
 
   bool moving() const { return type != JointType::kFixed; }
+  bool mimics() const { return mimic_leader >= 0; }
 };
 
 struct RobotDescription {
@@ -68,9 +89,14 @@ struct RobotDescription {
   std::string source;                 ///< file path or label, for messages
   std::vector<LinkDesc> links;        ///< file order
   std::vector<JointDesc> joints;      ///< file order
-  std::vector<int> moving_joints;     ///< joint indices in file order (defines nj)
+  std::vector<int> moving_joints;     ///< independent moving joints, file order (defines nj)
+  std::vector<int> mimic_joints;      ///< mimic followers, file order
   int root_link = -1;
-  std::vector<std::string> warnings;  ///< accepted oddities (e.g. mesh collisions skipped)
+  std::vector<std::string> warnings;  ///< accepted oddities (e.g. a zero effort limit)
+  /// Elements that do not change the dynamics and are ignored (<gazebo>, <transmission>,
+  /// <sensor>, <visual>, ...), one entry per element name: "<name> ×count (first at
+  /// file:line)". Tools print them with --verbose.
+  std::vector<std::string> ignored_elements;
 
   int findLink(std::string_view link_name) const;    ///< −1 when unknown
   int findJoint(std::string_view joint_name) const;  ///< −1 when unknown
@@ -79,11 +105,24 @@ struct RobotDescription {
   double totalMass() const;
 };
 
-/// Checks what dynamics needs beyond a well-formed URDF: every link on a moving joint (and
-/// the root of a floating-base model) has mass > 0 and an inertia
-/// that is symmetric positive definite and satisfies the triangle inequality; all numbers
-/// are finite. Throws ModelError naming the file, line, element and reason.
+/// Checks what dynamics needs beyond a well-formed URDF: all numbers are finite, masses are
+/// non-negative, every inertia given is symmetric positive semi-definite and satisfies
+/// the triangle inequality; every moving joint moves mass (its subtree has mass, and for
+/// a revolute joint an inertia about the joint axis > 0); a floating base carries a
+/// whole-body mass and inertia. Massless links are accepted wherever this holds (e.g. the
+/// intermediate links of a 3-DoF hip). Throws ModelError naming the file, line, element
+/// (the joint whose motion moves no mass) and reason.
 void validateForDynamics(const RobotDescription& robot, bool floating_base);
+
+/// Turns the named joints into fixed joints at the given position (rad or m): the child is
+/// welded at X_PJ · motion(position). Mimic followers of a locked joint are locked at
+/// their own k · position + c. Coordinates are renumbered. Throws ModelError on an unknown
+/// joint name or a position outside the joint's limits.
+struct JointLock {
+  std::string joint;
+  double position = 0.0;
+};
+void lockJoints(RobotDescription& robot, const std::vector<JointLock>& locks);
 
 /// The model's names, sizes and limits as every backend reports them (ModelInfo): joints
 /// are the moving joints in file order, bodies all links in file order.

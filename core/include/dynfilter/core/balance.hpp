@@ -1,0 +1,168 @@
+#pragma once
+/// @file
+/// The balance layer (QP mode, beyond the paper): keeps the whole-body motion balanced by
+/// giving the whole-body QP centroidal tasks weighted above the joint tracking of Eq. 17.
+///
+/// - Centre of mass c, its velocity and the centroidal angular momentum L come from the
+///   joint-space mass matrix (free-flyer convention: A's first six rows are the spatial
+///   momentum at the base origin in base axes), so every backend gives them.
+/// - The reference's future (preview samples pushed ahead of the ticks) gives a feasible
+///   divergent component of motion ξ_d = c + ċ/ω (capture point, ω = √(g/h)): the
+///   reference's centre of pressure (LIPM: p = c − h c̈/(g + z̈)) is clamped into the
+///   reference's own support (body points within stance_height of the ground and slow),
+///   then ξ is integrated backwards from the end of the window, ξ_k = p_k +
+///   e^{−ω Δt}(ξ_{k+1} − p_k).
+/// - DCM feedback: the CoP command p = p_d + (1 + k)(ξ − ξ_d), clamped into the filter's
+///   own support (its held virtual links), gives the desired CoM acceleration
+///   c̈_xy = ω² (c − p); height by PD on the reference's CoM height.
+/// - Tasks for the QP, rows on x = (v̇, τ_C): the CoM acceleration m c̈ = Σ f + m g written
+///   on the contact forces (exact: the base rows of Eq. 12 are Newton's law), optionally
+///   L̇ = −k L, and soles kept flat on the ground while their body is in contact.
+/// - It also judges whether the reference can be followed at all: a reference that needs
+///   a supporting force and has no support (hanging in the air), or whose needed force
+///   lies outside the friction cone of its support (a 40° slope), is reported.
+/// Nothing allocates after construction.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "dynfilter/core/contact_qp.hpp"
+#include "dynfilter/core/dynamics_model.hpp"
+#include "dynfilter/core/filter_options.hpp"
+#include "dynfilter/core/reference_frame.hpp"
+#include "dynfilter/core/virtual_links.hpp"
+
+namespace dynfilter {
+
+/// Centroidal quantities of a floating-base model at (q, v).
+struct CentroidalState {
+  Eigen::Vector3d c_W = Eigen::Vector3d::Zero();     ///< centre of mass, world (m)
+  Eigen::Vector3d cdot_W = Eigen::Vector3d::Zero();  ///< its velocity, world (m/s)
+  Eigen::Vector3d L_W = Eigen::Vector3d::Zero();     ///< angular momentum about c, world axes (kg m²/s)
+};
+
+/// From the mass matrix @p A (nv × nv) at @p q (nq), @p v (nv) of a floating-base model of
+/// total mass @p mass_kg (free-flyer convention, model_info.hpp).
+CentroidalState centroidalState(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                                const Eigen::Ref<const Eigen::VectorXd>& q,
+                                const Eigen::Ref<const Eigen::VectorXd>& v, double mass_kg);
+
+/// Why the reference cannot be followed (with kStatusReferenceInfeasible).
+enum class InfeasibleReason : int {
+  kNone = 0,
+  kNoSupport = 1,    ///< it needs a supporting force and no body of it is near the ground
+  kOutsideCone = 2,  ///< the force it needs lies outside the friction cone of its support
+};
+/// "reference needs support it does not have (hanging in the air)", ...; static string.
+const char* toString(InfeasibleReason reason);
+
+/// What the balance layer computed this tick (for outputs and tests).
+struct BalanceState {
+  bool active = false;                             ///< tasks were given to the QP
+  CentroidalState filter;                          ///< at the filter's state
+  CentroidalState reference;                       ///< at the reference
+  Eigen::Vector2d dcm = Eigen::Vector2d::Zero();   ///< ξ of the filter (m)
+  Eigen::Vector2d dcm_desired = Eigen::Vector2d::Zero();  ///< ξ_d (m)
+  Eigen::Vector2d cop_command = Eigen::Vector2d::Zero();  ///< p, in the support (m)
+  Eigen::Vector3d com_accel_desired = Eigen::Vector3d::Zero();  ///< c̈_d (m/s²)
+  int preview_samples = 0;                         ///< future samples used
+  InfeasibleReason infeasible = InfeasibleReason::kNone;
+};
+
+class BalanceLayer {
+ public:
+  /// Throws std::invalid_argument on a fixed-base model or a sole body that is not a link
+  /// of the model. Without BalanceOptions::soles, the soles are the bodies the model
+  /// stands on in its neutral configuration (found with @p model's collision engine: the
+  /// bodies within 1 cm of the lowest contact point), their normal the ground's there.
+  BalanceLayer(IDynamicsModel& model, const BalanceOptions& options);
+
+  /// Rows the layer may write into a QpObjectiveTasks.
+  int maxTaskRows() const { return 6 + 6 * static_cast<int>(soles_.size()); }
+
+  /// Adds a reference frame of the future (time after the previous one's; otherwise the
+  /// preview restarts from it). Poses @p model at the frame. Returns false when the frame
+  /// is not valid for the model (nothing kept). No allocation.
+  bool pushPreview(IDynamicsModel& model, const ReferenceFrame& frame);
+  void clearPreview() { size_ = 0; }
+  int previewSize() const { return size_; }
+
+  /// Start of a tick, with @p model posed at @p reference: the reference's centroidal
+  /// sample (from the preview when it brackets the time, else from @p model), the DCM
+  /// target over the preview window, and the feasibility judgement. @p dt_s: the tick.
+  void prepare(IDynamicsModel& model, const ReferenceFrame& reference, double dt_s);
+
+  /// The QP's tasks at the filter's state: @p model posed there, @p A its mass matrix,
+  /// @p links the held links in the order of τ_C. Writes @p tasks (rows = 0 when inactive).
+  void buildTasks(const IDynamicsModel& model, const Eigen::Ref<const Eigen::MatrixXd>& A,
+                  const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& v,
+                  const VirtualLinkSet& links, QpObjectiveTasks& tasks);
+
+  /// Soles come down flat: for every sole body that holds a point or edge link, its
+  /// collision points within BalanceOptions::sole_margin_m of the surface are added to
+  /// @p candidates (depth 0), so that the link upgrades to a face once the sole is nearly
+  /// flat (points exactly at the surface are not reported by collision engines). Poses
+  /// @p model at the lowered state and back at (q, v).
+  void addSoleCandidates(IDynamicsModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                         const Eigen::Ref<const Eigen::VectorXd>& v, const VirtualLinkSet& links,
+                         ContactList& candidates);
+
+  const BalanceState& state() const { return state_; }
+  /// The reference's contact schedule at the last prepare(): bit b set when the reference
+  /// has body b within stance_height_m of the environment and slower than
+  /// stance_speed_mps (bodies ≥ 64 are not tracked).
+  std::uint64_t referenceStance() const { return now_.stance; }
+  /// Bodies kept flat on the ground while in contact (body indices).
+  const std::vector<int>& soleBodies() const { return sole_bodies_; }
+
+ private:
+  static constexpr int kMaxSupport = 24;  // hull vertices of one support polygon
+  struct Sample {
+    double t = 0.0;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero(), cdot = Eigen::Vector3d::Zero();
+    int num_support = 0;
+    std::array<Eigen::Vector2d, kMaxSupport> support;  // convex hull, counter-clockwise
+    std::uint64_t stance = 0;  // bodies (< 64) in stance
+  };
+  struct SoleReference {  // a sole's pose and motion in the reference at this tick
+    Eigen::Vector3d p = Eigen::Vector3d::Zero(), pdot = Eigen::Vector3d::Zero(), pddot = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d omega = Eigen::Vector3d::Zero(), omegadot = Eigen::Vector3d::Zero();
+    double clearance_m = 1e9;  // height of its lowest point above the environment (≤ stance height)
+  };
+  void makeSample(IDynamicsModel& model, const ReferenceFrame& frame, Sample& out);
+  int swingSoleRows(const IDynamicsModel& model, const Eigen::Ref<const Eigen::VectorXd>& v,
+                    std::size_t s, int rows, QpObjectiveTasks& tasks);
+  const Sample& at(int i) const;  // 0 = oldest
+  double groundHeight(const Eigen::Vector2d& p_xy) const;
+  // Reference CoP (LIPM) over [a, b], clamped into a's support.
+  Eigen::Vector2d segmentCop(const Sample& a, const Sample& b, Eigen::Vector3d* cddot) const;
+
+  BalanceOptions options_;
+  const ModelInfo& info_;
+  double mass_kg_ = 0.0;
+  const Environment* environment_ = nullptr;  // the model's, from the last prepare()
+  std::vector<int> sole_bodies_;
+  std::vector<SoleOptions> soles_;
+  std::vector<SoleReference> sole_refs_;
+  std::vector<Sample> ring_;
+  int head_ = 0, size_ = 0;
+  Sample now_;                  // the reference at this tick
+  Eigen::Vector2d dcm_target_ = Eigen::Vector2d::Zero(), cop_target_ = Eigen::Vector2d::Zero();
+  Eigen::Vector3d cddot_ref_ = Eigen::Vector3d::Zero();
+  double omega_ = 3.0;
+  double infeasible_s_ = 0.0;   // time the reference has looked infeasible
+  InfeasibleReason pending_ = InfeasibleReason::kNone;
+  BalanceState state_;
+  // Scratch.
+  Eigen::MatrixXd A_;
+  Matrix6Xd J_;
+  ContactList candidates_;
+  Eigen::VectorXd q_lowered_;
+  std::array<Eigen::Vector2d, 64> points_;
+};
+
+}  // namespace dynfilter

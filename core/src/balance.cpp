@@ -1,0 +1,467 @@
+#include "dynfilter/core/balance.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "dynfilter/core/lie_group.hpp"
+
+namespace dynfilter {
+namespace {
+
+constexpr double kGravity = 9.81;  // m/s², along −z (the models' default gravity)
+constexpr double kMinHeight = 0.2;  // m: the LIPM height never below this
+constexpr double kInfeasibleAfterS = 0.25;  // s the reference must look infeasible
+
+double cross2(const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+}
+
+// Convex hull (counter-clockwise) of points[0, n) into hull; returns its size (≤ capacity).
+template <std::size_t N, std::size_t M>
+int convexHull(std::array<Eigen::Vector2d, N>& points, int n, std::array<Eigen::Vector2d, M>& hull) {
+  if (n <= 0) return 0;
+  std::sort(points.begin(), points.begin() + n, [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
+  if (n == 1) {
+    hull[0] = points[0];
+    return 1;
+  }
+  std::array<Eigen::Vector2d, 2 * N> h;
+  int k = 0;
+  for (int i = 0; i < n; ++i) {
+    while (k >= 2 && cross2(h[k - 2], h[k - 1], points[i]) <= 1e-12) --k;
+    h[k++] = points[i];
+  }
+  for (int i = n - 2, t = k + 1; i >= 0; --i) {
+    while (k >= t && cross2(h[k - 2], h[k - 1], points[i]) <= 1e-12) --k;
+    h[k++] = points[i];
+  }
+  const int size = std::min<int>(std::max(k - 1, 1), static_cast<int>(M));
+  for (int i = 0; i < size; ++i) hull[i] = h[i];
+  return size;
+}
+
+// The point of the convex polygon hull[0, n) nearest to p (p itself when inside).
+template <std::size_t M>
+Eigen::Vector2d clampToHull(const Eigen::Vector2d& p, const std::array<Eigen::Vector2d, M>& hull, int n) {
+  if (n <= 0) return p;
+  if (n == 1) return hull[0];
+  bool inside = n >= 3;
+  for (int i = 0; i < n && inside; ++i)
+    inside = cross2(hull[i], hull[(i + 1) % n], p) >= 0.0;
+  if (inside) return p;
+  Eigen::Vector2d best = hull[0];
+  double best_d = (p - best).squaredNorm();
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector2d a = hull[i], e = hull[(i + 1) % n] - a;
+    const double s = std::clamp(e.dot(p - a) / std::max(e.squaredNorm(), 1e-18), 0.0, 1.0);
+    const Eigen::Vector2d x = a + s * e;
+    const double d = (p - x).squaredNorm();
+    if (d < best_d) {
+      best_d = d;
+      best = x;
+    }
+  }
+  return best;
+}
+
+
+}  // namespace
+
+CentroidalState centroidalState(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                                const Eigen::Ref<const Eigen::VectorXd>& q,
+                                const Eigen::Ref<const Eigen::VectorXd>& v, double mass_kg) {
+  // A's top-left 6×6 is the composite spatial inertia at the base origin in base axes:
+  // [[m I, −m [c]×], [m [c]×, Ī]]; A's first six rows times v are the spatial momentum.
+  CentroidalState s;
+  const Eigen::Matrix3d S = A.block<3, 3>(3, 0) / mass_kg;  // [c_B]×
+  const Eigen::Vector3d c_B(0.5 * (S(2, 1) - S(1, 2)), 0.5 * (S(0, 2) - S(2, 0)),
+                            0.5 * (S(1, 0) - S(0, 1)));
+  const Eigen::Matrix3d R_WB =
+      Eigen::Quaterniond(q[3], q[4], q[5], q[6]).normalized().toRotationMatrix();
+  const Eigen::Vector3d h_lin = A.topRows<3>() * v;
+  const Eigen::Vector3d h_ang = A.middleRows<3>(3) * v;
+  s.c_W = q.head<3>() + R_WB * c_B;
+  s.cdot_W = R_WB * h_lin / mass_kg;
+  s.L_W = R_WB * (h_ang - c_B.cross(h_lin));
+  return s;
+}
+
+const char* toString(InfeasibleReason reason) {
+  switch (reason) {
+    case InfeasibleReason::kNone: return "";
+    case InfeasibleReason::kNoSupport:
+      return "the reference needs a supporting force and no body of it is near the ground "
+             "(hanging in the air)";
+    case InfeasibleReason::kOutsideCone:
+      return "the force the reference needs lies outside the friction cone of its support "
+             "(ground too steep or too slippery)";
+  }
+  return "unknown";
+}
+
+BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
+    : options_(options),
+      info_(model.info()),
+      mass_kg_(std::max(model.info().total_mass, 1e-9)),
+      soles_(options.soles),
+      ring_(static_cast<std::size_t>(options.preview_capacity)),
+      A_(Eigen::MatrixXd::Zero(model.nv(), model.nv())),
+      J_(Matrix6Xd::Zero(6, model.nv())),
+      candidates_(64),
+      q_lowered_(Eigen::VectorXd::Zero(model.nq())) {
+  const ModelInfo& info = model.info();
+  if (!info.floating_base) throw std::invalid_argument("the balance layer needs a floating base");
+  for (const SoleOptions& sole : soles_) {
+    const int body = info.findBody(sole.body);
+    if (body < 0)
+      throw std::invalid_argument("filter option balance.soles: \"" + sole.body +
+                                  "\" is not a link of model \"" + info.name + "\"");
+    sole_bodies_.push_back(body);
+  }
+  if (soles_.empty() && model.environment().has_ground) {
+    // The bodies the model stands on: its neutral configuration sunk into the ground.
+    const Eigen::VectorXd q_saved = model.q(), v_saved = model.v();
+    Eigen::VectorXd q = info.neutralConfiguration();
+    const Eigen::VectorXd v = Eigen::VectorXd::Zero(info.nv);
+    const GroundPlane& ground = model.environment().ground;
+    q[2] += (ground.offset_m - ground.n_W.x() * q[0] - ground.n_W.y() * q[1]) / ground.n_W.z() - q[2];
+    model.setState(q, v);
+    model.detectContacts(candidates_);
+    double deepest = 0.0;
+    for (const ContactCandidate& c : candidates_) deepest = std::max(deepest, c.depth_m);
+    for (const ContactCandidate& c : candidates_) {
+      if (c.depth_m < deepest - 0.01 || c.object != kGroundObject) continue;
+      if (std::find(sole_bodies_.begin(), sole_bodies_.end(), c.body) != sole_bodies_.end()) continue;
+      SoleOptions sole;
+      sole.body = info.body_names[static_cast<std::size_t>(c.body)];
+      sole.n_B = model.bodyPose(c.body).linear().transpose() * c.n_W;
+      soles_.push_back(sole);
+      sole_bodies_.push_back(c.body);
+    }
+    model.setState(q_saved, v_saved);
+  }
+  for (SoleOptions& sole : soles_) sole.n_B.normalize();
+  sole_refs_.resize(soles_.size());
+}
+
+const BalanceLayer::Sample& BalanceLayer::at(int i) const {
+  return ring_[static_cast<std::size_t>((head_ + i) % static_cast<int>(ring_.size()))];
+}
+
+double BalanceLayer::groundHeight(const Eigen::Vector2d& p) const {
+  if (environment_ == nullptr || !environment_->has_ground) return 0.0;
+  const GroundPlane& g = environment_->ground;
+  if (std::abs(g.n_W.z()) < 0.1) return 0.0;
+  return (g.offset_m - g.n_W.x() * p.x() - g.n_W.y() * p.y()) / g.n_W.z();
+}
+
+void BalanceLayer::makeSample(IDynamicsModel& model, const ReferenceFrame& frame, Sample& out) {
+  out.t = frame.time_s;
+  model.setState(frame.q, frame.v);
+  model.massMatrix(A_);
+  const CentroidalState cs = centroidalState(A_, frame.q, frame.v, mass_kg_);
+  out.c = cs.c_W;
+  out.cdot = cs.cdot_W;
+  // Support: body points within stance_height of the environment and slow. The model is
+  // lowered by stance_height so that the collision engine reports them.
+  const double h = options_.stance_height_m;
+  q_lowered_ = frame.q;
+  q_lowered_[2] -= h;
+  model.setState(q_lowered_, frame.v);
+  model.detectContacts(candidates_);
+  int n = 0;
+  out.stance = 0;
+  for (const ContactCandidate& c : candidates_) {
+    if (n >= static_cast<int>(points_.size())) break;
+    const Vector6d V = model.bodyVelocity(c.body);
+    const Eigen::Vector3d r = c.p_WC - model.bodyPose(c.body).translation();
+    const Eigen::Vector3d v_point = V.head<3>() + V.tail<3>().cross(r);
+    // Slow along the surface: a reference foot sinking into the ground is still in stance.
+    if ((v_point - c.n_W * c.n_W.dot(v_point)).norm() > options_.stance_speed_mps) continue;
+    points_[static_cast<std::size_t>(n++)] = c.p_WC.head<2>();
+    if (c.body < 64) out.stance |= std::uint64_t{1} << c.body;
+  }
+  out.num_support = convexHull(points_, n, out.support);
+  model.setState(frame.q, frame.v);
+}
+
+bool BalanceLayer::pushPreview(IDynamicsModel& model, const ReferenceFrame& frame) {
+  if (!info_.checkState(frame.q, frame.v).ok || !std::isfinite(frame.time_s)) return false;
+  if (size_ > 0 && frame.time_s <= at(size_ - 1).t) size_ = 0;  // time went back: restart
+  const int capacity = static_cast<int>(ring_.size());
+  if (size_ == capacity) {
+    head_ = (head_ + 1) % capacity;
+    --size_;
+  }
+  makeSample(model, frame, ring_[static_cast<std::size_t>((head_ + size_) % capacity)]);
+  ++size_;
+  return true;
+}
+
+Eigen::Vector2d BalanceLayer::segmentCop(const Sample& a, const Sample& b, Eigen::Vector3d* cddot) const {
+  const double dt = b.t - a.t;
+  const Eigen::Vector3d acc = dt > 1e-9 ? Eigen::Vector3d((b.cdot - a.cdot) / dt) : Eigen::Vector3d::Zero();
+  if (cddot != nullptr) *cddot = acc;
+  const Eigen::Vector3d c = 0.5 * (a.c + b.c);
+  const double height = std::max(c.z() - groundHeight(c.head<2>()), kMinHeight);
+  const double support = kGravity + acc.z();
+  Eigen::Vector2d p = c.head<2>();
+  if (support > 0.2 * kGravity) p -= height / support * acc.head<2>();
+  return clampToHull(p, a.support, a.num_support);
+}
+
+void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& reference, double dt_s) {
+  const double t = reference.time_s;
+  // Drop preview samples older than the one just before t.
+  while (size_ >= 2 && at(1).t <= t) {
+    head_ = (head_ + 1) % static_cast<int>(ring_.size());
+    --size_;
+  }
+  // The reference now: interpolated between preview samples when they bracket t.
+  if (size_ >= 2 && at(0).t <= t && at(1).t > t) {
+    const Sample& a = at(0);
+    const Sample& b = at(1);
+    const double s = (t - a.t) / (b.t - a.t);
+    now_.t = t;
+    now_.c = a.c + s * (b.c - a.c);
+    now_.cdot = a.cdot + s * (b.cdot - a.cdot);
+    const Sample& nearest = s < 0.5 ? a : b;
+    now_.num_support = nearest.num_support;
+    now_.support = nearest.support;
+    now_.stance = nearest.stance;
+  } else {
+    makeSample(model, reference, now_);
+  }
+  // The soles in the reference: pose, motion and clearance (for the swing-sole task).
+  model.setState(reference.q, reference.v);
+  for (std::size_t s = 0; s < soles_.size(); ++s) {
+    SoleReference& r = sole_refs_[s];
+    const int body = sole_bodies_[s];
+    const Eigen::Isometry3d X_WB = model.bodyPose(body);
+    model.pointJacobian(body, Eigen::Vector3d::Zero(), J_);
+    const Vector6d V = J_ * reference.v;
+    const Vector6d acc = J_ * reference.vdot + model.pointJacobianDotTimesV(body, Eigen::Vector3d::Zero());
+    r.p = X_WB.translation();
+    r.R = X_WB.linear();
+    r.pdot = V.head<3>();
+    r.omega = V.tail<3>();
+    r.pddot = acc.head<3>();
+    r.omegadot = acc.tail<3>();
+    r.clearance_m = 1e9;
+  }
+  q_lowered_ = reference.q;
+  q_lowered_[2] -= options_.stance_height_m;
+  model.setState(q_lowered_, reference.v);
+  model.detectContacts(candidates_);
+  model.setState(reference.q, reference.v);
+  for (const ContactCandidate& c : candidates_)
+    for (std::size_t s = 0; s < soles_.size(); ++s)
+      if (c.body == sole_bodies_[s])
+        sole_refs_[s].clearance_m = std::min(sole_refs_[s].clearance_m, options_.stance_height_m - c.depth_m);
+  state_.reference.c_W = now_.c;
+  state_.reference.cdot_W = now_.cdot;
+  const Environment& env = model.environment();
+  environment_ = &env;
+  const double height = std::max(now_.c.z() - groundHeight(now_.c.head<2>()), kMinHeight);
+  omega_ = std::sqrt(kGravity / height);
+
+  // Future samples in the window, after t.
+  int first = 0;
+  while (first < size_ && at(first).t <= t) ++first;
+  int last = first;
+  // Beyond 14/ω the future weighs less than e⁻¹⁴ ≈ 1e-6 in ξ: the window stops there.
+  const double window_s = std::min(options_.preview_s, 14.0 / omega_);
+  while (last < size_ && at(last).t <= t + window_s) ++last;
+  state_.preview_samples = last - first;
+  if (last > first) {
+    const Sample& end = at(last - 1);
+    Eigen::Vector2d xi = end.c.head<2>() + end.cdot.head<2>() / omega_;
+    for (int i = last - 1; i > first; --i) {
+      const Sample& a = at(i - 1);
+      const Sample& b = at(i);
+      const Eigen::Vector2d p = segmentCop(a, b, nullptr);
+      xi = p + std::exp(-omega_ * (b.t - a.t)) * (xi - p);
+    }
+    const Sample& b = at(first);
+    cop_target_ = segmentCop(now_, b, &cddot_ref_);
+    dcm_target_ = cop_target_ + std::exp(-omega_ * (b.t - t)) * (xi - cop_target_);
+  } else {
+    cddot_ref_.setZero();
+    cop_target_ = clampToHull(Eigen::Vector2d(now_.c.head<2>()), now_.support, now_.num_support);
+    dcm_target_ = now_.c.head<2>() + now_.cdot.head<2>() / omega_;
+  }
+  state_.dcm_desired = dcm_target_;
+
+  // Can the reference be followed? It needs the contact force m (c̈ − g).
+  const Eigen::Vector3d force = mass_kg_ * (cddot_ref_ + Eigen::Vector3d(0.0, 0.0, kGravity));
+  InfeasibleReason reason = InfeasibleReason::kNone;
+  if (force.z() > 0.3 * mass_kg_ * kGravity) {
+    if (now_.num_support == 0) {
+      reason = InfeasibleReason::kNoSupport;
+    } else if (env.has_ground) {
+      const Eigen::Vector3d& n = env.ground.n_W;
+      const double fn = force.dot(n);
+      const double ft = (force - fn * n).norm();
+      if (fn <= 0.0 || ft > env.ground.friction * fn) reason = InfeasibleReason::kOutsideCone;
+    }
+  }
+  if (reason != InfeasibleReason::kNone && reason == pending_) {
+    infeasible_s_ += dt_s;
+  } else {
+    pending_ = reason;
+    infeasible_s_ = reason != InfeasibleReason::kNone ? dt_s : 0.0;
+  }
+  if (infeasible_s_ >= kInfeasibleAfterS) state_.infeasible = pending_;
+  else if (reason == InfeasibleReason::kNone) state_.infeasible = InfeasibleReason::kNone;
+}
+
+void BalanceLayer::addSoleCandidates(IDynamicsModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                                     const Eigen::Ref<const Eigen::VectorXd>& v,
+                                     const VirtualLinkSet& links, ContactList& candidates) {
+  bool any = false;
+  for (int i = 0; i < links.size(); ++i)
+    any = any || (links[i].kind != ContactKind::kFace &&
+                  std::find(sole_bodies_.begin(), sole_bodies_.end(), links[i].body) != sole_bodies_.end());
+  if (!any) return;
+  const double margin = options_.sole_margin_m;
+  q_lowered_ = q;
+  q_lowered_[2] -= margin;
+  model.setState(q_lowered_, v);
+  model.detectContacts(candidates_);
+  model.setState(q, v);
+  for (int i = 0; i < links.size(); ++i) {
+    const VirtualLink& link = links[i];
+    if (link.kind == ContactKind::kFace ||
+        std::find(sole_bodies_.begin(), sole_bodies_.end(), link.body) == sole_bodies_.end())
+      continue;
+    for (const ContactCandidate& c : candidates_) {
+      if (c.body != link.body || c.object != link.object) continue;
+      ContactCandidate raised = c;
+      raised.p_WC.z() += margin;
+      raised.depth_m = std::max(0.0, c.depth_m - margin);
+      bool known = false;
+      for (const ContactCandidate& k : candidates)
+        known = known || (k.body == c.body && (k.p_BC - c.p_BC).norm() < 1e-3);
+      if (!known) candidates.push(raised);
+    }
+  }
+}
+
+int BalanceLayer::swingSoleRows(const IDynamicsModel& model, const Eigen::Ref<const Eigen::VectorXd>& v,
+                                std::size_t s, int rows, QpObjectiveTasks& tasks) {
+  // A sole in the air follows the reference's sole (world pose); when the reference has it
+  // in stance, to 2 mm below the surface under it, so that it lands and its link forms.
+  const SoleReference& r = sole_refs_[s];
+  const int body = sole_bodies_[s];
+  const int nv = info_.nv;
+  const Eigen::Isometry3d X_WB = model.bodyPose(body);
+  model.pointJacobian(body, Eigen::Vector3d::Zero(), J_);
+  const Vector6d drift = model.pointJacobianDotTimesV(body, Eigen::Vector3d::Zero());
+  const Vector6d V = J_ * v;
+  Eigen::Vector3d p_target = r.p;
+  if (r.clearance_m <= options_.stance_height_m) p_target.z() -= r.clearance_m + 0.002;
+  const double kp = options_.sole_kp, kd = options_.sole_kd;
+  Vector6d acc;
+  acc.head<3>() = r.pddot + kd * (r.pdot - V.head<3>()) + kp * (p_target - X_WB.translation());
+  acc.tail<3>() = r.omegadot + kd * (r.omega - V.tail<3>()) + kp * logSO3(r.R * X_WB.linear().transpose());
+  tasks.T.block(rows, 0, 6, tasks.T.cols()).setZero();
+  tasks.T.block(rows, 0, 6, nv) = J_;
+  tasks.r.segment<6>(rows) = acc - drift;
+  tasks.w.segment<6>(rows).setConstant(options_.sole_weight);
+  return rows + 6;
+}
+
+void BalanceLayer::buildTasks(const IDynamicsModel& model, const Eigen::Ref<const Eigen::MatrixXd>& A,
+                              const Eigen::Ref<const Eigen::VectorXd>& q,
+                              const Eigen::Ref<const Eigen::VectorXd>& v, const VirtualLinkSet& links,
+                              QpObjectiveTasks& tasks) {
+  tasks.rows = 0;
+  state_.active = false;
+  const int nv = info_.nv;
+  state_.filter = centroidalState(A, q, v, mass_kg_);
+  const Eigen::Vector3d& c = state_.filter.c_W;
+  const Eigen::Vector3d& cdot = state_.filter.cdot_W;
+  state_.dcm = c.head<2>() + cdot.head<2>() / omega_;
+
+  // The filter's support: the held links' support rectangles.
+  int n = 0;
+  for (int i = 0; i < links.size() && n + 4 <= static_cast<int>(points_.size()); ++i) {
+    const VirtualLink& link = links[i];
+    for (const double x : {link.support_min.x(), link.support_max.x()})
+      for (const double y : {link.support_min.y(), link.support_max.y()})
+        points_[static_cast<std::size_t>(n++)] = (link.X_WA * Eigen::Vector3d(x, y, 0.0)).head<2>();
+  }
+  std::array<Eigen::Vector2d, kMaxSupport> support;
+  const int num_support = convexHull(points_, n, support);
+  if (num_support == 0 || links.numRows() == 0) return;  // flight: nothing to balance on
+
+  // DCM feedback → CoP command in the support → CoM acceleration.
+  const Eigen::Vector2d p_raw =
+      cop_target_ + (1.0 + options_.dcm_gain) * (state_.dcm - dcm_target_);
+  const Eigen::Vector2d p = clampToHull(p_raw, support, num_support);
+  state_.cop_command = p;
+  Eigen::Vector3d cddot;
+  cddot.head<2>() = omega_ * omega_ * (c.head<2>() - p);
+  cddot.z() = cddot_ref_.z() + options_.height_kd * (now_.cdot.z() - cdot.z()) +
+              options_.height_kp * (now_.c.z() - c.z());
+  state_.com_accel_desired = cddot;
+
+  // Rows on τ_C: m c̈ = Σ_links R_WA f_A + m g, and L̇ = Σ (p − c) × f + moments.
+  tasks.T.topRows(6).setZero();
+  int slot = 0;
+  for (int i = 0; i < links.size(); ++i) {
+    const VirtualLink& link = links[i];
+    const Eigen::Matrix3d& R = link.X_WA.linear();
+    const Eigen::Matrix3d lever = skew(Eigen::Vector3d(link.X_WA.translation() - c)) * R;
+    for (int k = 0; k < link.num_axes; ++k) {
+      const int axis = link.axes[static_cast<std::size_t>(k)];
+      const int col = nv + slot + k;
+      if (axis < 3) {
+        tasks.T.block<3, 1>(0, col) = R.col(axis) / mass_kg_;
+        tasks.T.block<3, 1>(3, col) = lever.col(axis);
+      } else {
+        tasks.T.block<3, 1>(3, col) = R.col(axis - 3);
+      }
+    }
+    slot += link.num_axes;
+  }
+  tasks.r.head<3>() = cddot - Eigen::Vector3d(0.0, 0.0, -kGravity);
+  tasks.w.head<3>().setConstant(options_.com_weight);
+  tasks.r.segment<3>(3) = -options_.angular_momentum_damping * state_.filter.L_W;
+  tasks.w.segment<3>(3).setConstant(options_.angular_momentum_weight);
+  int rows = 6;
+
+  // Soles flat on the ground while their body holds a link: ω̇ = kp e − kd ω on v̇.
+  for (std::size_t s = 0; s < soles_.size(); ++s) {
+    const int body = sole_bodies_[s];
+    const VirtualLink* held = nullptr;
+    for (int i = 0; i < links.size(); ++i)
+      if (links[i].body == body) held = &links[i];
+    if (held == nullptr) {
+      rows = swingSoleRows(model, v, s, rows, tasks);
+      continue;
+    }
+    const Eigen::Isometry3d X_WB = model.bodyPose(body);
+    const Eigen::Vector3d n_W = X_WB.linear() * soles_[s].n_B;
+    const Eigen::Vector3d n_ground = held->X_WA.linear().col(2);
+    const Eigen::Vector3d axis = n_W.cross(n_ground);
+    const double angle = std::atan2(axis.norm(), n_W.dot(n_ground));
+    const Eigen::Vector3d error = axis.norm() > 1e-12 ? Eigen::Vector3d(axis.normalized() * angle)
+                                                      : Eigen::Vector3d::Zero();
+    model.pointJacobian(body, Eigen::Vector3d::Zero(), J_);
+    const Vector6d drift = model.pointJacobianDotTimesV(body, Eigen::Vector3d::Zero());
+    const Eigen::Vector3d omega = J_.bottomRows<3>() * v;
+    tasks.T.block(rows, 0, 3, tasks.T.cols()).setZero();
+    tasks.T.block(rows, 0, 3, nv) = J_.bottomRows<3>();
+    tasks.r.segment<3>(rows) = options_.sole_kp * error - options_.sole_kd * omega - drift.tail<3>();
+    tasks.w.segment<3>(rows).setConstant(options_.sole_weight);
+    rows += 3;
+  }
+  tasks.rows = rows;
+  state_.active = true;
+}
+
+}  // namespace dynfilter

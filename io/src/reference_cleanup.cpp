@@ -1,0 +1,455 @@
+#include "dynfilter/io/reference_cleanup.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "dynfilter/core/kinematic_tree.hpp"
+#include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/io/input_error.hpp"
+#include "dynfilter/io/pose_ik.hpp"
+
+namespace dynfilter::io {
+namespace {
+
+// IK weights of the foot targets: position (1/m) and orientation (1/rad); far above the
+// posture weights so that a stance foot stays within a fraction of a millimetre.
+constexpr double kFootPositionWeight = 1e3;
+constexpr double kFootOrientationWeight = 10.0;
+
+// A foot: its body and sole points (body frame) from the neutral stance.
+struct Foot {
+  std::string link;
+  int body = -1;
+  std::vector<Eigen::Vector3d> sole;  // p_BS
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d R_flat = Eigen::Matrix3d::Identity();  // R_WB at the neutral stance
+};
+
+struct Setup {
+  std::vector<Foot> feet;
+  double leg_length_m = 0.0;
+};
+
+double groundHeight(const IDynamicsModel& model, const Eigen::Vector3d& p_W) {
+  const Environment& env = model.environment();
+  return env.has_ground ? env.ground.signedDistance(p_W) : p_W.z();
+}
+
+Eigen::Vector3d groundNormal(const IDynamicsModel& model) {
+  const Environment& env = model.environment();
+  return env.has_ground ? env.ground.n_W : Eigen::Vector3d::UnitZ();
+}
+
+Setup findFeet(IDynamicsModel& model, const ReferenceCleanupOptions& options) {
+  options.validate();
+  const ModelInfo& info = model.info();
+  if (!info.floating_base) throw std::invalid_argument("cleanupReference: the model must have a floating base");
+  Eigen::VectorXd q = info.neutralConfiguration();
+  Setup setup;
+  setup.leg_length_m = standingBaseHeight(model, q);
+  q[2] = setup.leg_length_m - 1e-4;  // a little into the ground: every sole point reports
+  model.setState(q, Eigen::VectorXd::Zero(info.nv));
+  ContactList contacts(256);
+  model.detectContacts(contacts);
+  std::vector<int> bodies;
+  for (const std::string& name : options.feet) {
+    const int b = info.findBody(name);
+    if (b < 0)
+      throw std::invalid_argument("cleanup.feet: \"" + name + "\" is not a link of model " + info.name);
+    bodies.push_back(b);
+  }
+  if (bodies.empty())
+    for (const ContactCandidate& c : contacts)
+      if (std::find(bodies.begin(), bodies.end(), c.body) == bodies.end()) bodies.push_back(c.body);
+  std::sort(bodies.begin(), bodies.end());
+  if (bodies.empty())
+    throw std::invalid_argument("cleanupReference: model " + info.name +
+                                " touches the ground with no body at its neutral stance");
+  for (const int b : bodies) {
+    Foot f;
+    f.link = info.body_names[static_cast<std::size_t>(b)];
+    f.body = b;
+    for (const ContactCandidate& c : contacts)
+      if (c.body == b) f.sole.push_back(c.p_BC);
+    if (f.sole.empty())
+      throw std::invalid_argument("cleanup.feet: link \"" + f.link +
+                                  "\" does not touch the ground at the neutral stance");
+    for (const Eigen::Vector3d& p : f.sole) f.centre += p;
+    f.centre /= static_cast<double>(f.sole.size());
+    f.R_flat = model.bodyPose(b).linear();
+    setup.feet.push_back(f);
+  }
+  return setup;
+}
+
+// Lowest sole point above the ground (m) and the sole centre (world) at the current state.
+void soleState(const IDynamicsModel& model, const Foot& f, double& height_m, Eigen::Vector3d& centre_W) {
+  const Eigen::Isometry3d X = model.bodyPose(f.body);
+  height_m = std::numeric_limits<double>::infinity();
+  for (const Eigen::Vector3d& p : f.sole) height_m = std::min(height_m, groundHeight(model, X * p));
+  centre_W = X * f.centre;
+}
+
+// Runs of equal values: [begin, end) pairs.
+std::vector<std::pair<int, int>> runsOf(const std::vector<char>& x, char value) {
+  std::vector<std::pair<int, int>> runs;
+  const int n = static_cast<int>(x.size());
+  for (int k = 0; k < n;) {
+    if (x[static_cast<std::size_t>(k)] != value) {
+      ++k;
+      continue;
+    }
+    int e = k;
+    while (e < n && x[static_cast<std::size_t>(e)] == value) ++e;
+    runs.emplace_back(k, e);
+    k = e;
+  }
+  return runs;
+}
+
+double smoothstep(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * (3.0 - 2.0 * x);
+}
+
+double limitExcess(const ModelInfo& info, int j, double x) {
+  return std::max({0.0, info.q_lower[j] - x, x - info.q_upper[j]});
+}
+
+void limitSummary(const ModelInfo& info, const std::vector<ReferenceFrame>& frames, int& outside,
+                  double& rms) {
+  outside = 0;
+  double sum = 0.0;
+  for (int j = 0; j < info.nj; ++j) {
+    bool out = false;
+    for (const ReferenceFrame& f : frames) {
+      const double e = limitExcess(info, j, f.q[info.configurationIndex(j)]);
+      sum += e * e;
+      out |= e > 0;
+    }
+    outside += out;
+  }
+  rms = info.nj > 0 ? std::sqrt(sum / (static_cast<double>(info.nj) * frames.size())) : 0.0;
+}
+
+ContactSchedule schedule(const ReferenceMotion& motion, IDynamicsModel& model, const Setup& setup,
+                         const ReferenceCleanupOptions& options) {
+  const ModelInfo& info = model.info();
+  const int n = static_cast<int>(motion.frames.size());
+  const int nf = static_cast<int>(setup.feet.size());
+  ContactSchedule s;
+  for (const Foot& f : setup.feet) {
+    s.links.push_back(f.link);
+    s.bodies.push_back(f.body);
+  }
+  std::vector<std::vector<double>> height(static_cast<std::size_t>(nf), std::vector<double>(static_cast<std::size_t>(n)));
+  std::vector<std::vector<Eigen::Vector3d>> centre(static_cast<std::size_t>(nf), std::vector<Eigen::Vector3d>(static_cast<std::size_t>(n)));
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
+  for (int k = 0; k < n; ++k) {
+    model.setState(motion.frames[static_cast<std::size_t>(k)].q, v0);
+    s.time_s.push_back(motion.frames[static_cast<std::size_t>(k)].time_s);
+    for (int i = 0; i < nf; ++i)
+      soleState(model, setup.feet[static_cast<std::size_t>(i)], height[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)],
+                centre[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)]);
+  }
+  const Eigen::Vector3d normal = groundNormal(model);
+  const double h_max = options.contact_height * setup.leg_length_m;
+  const double v_max = options.contact_speed * setup.leg_length_m;
+  const double duration = s.time_s.back() - s.time_s.front();
+  const double dt = duration / std::max(1, n - 1);
+  const int min_frames = std::max(1, static_cast<int>(std::lround(options.min_phase_s / std::max(dt, 1e-9))));
+  s.stance.assign(static_cast<std::size_t>(n), std::vector<char>(static_cast<std::size_t>(nf), 0));
+  for (int i = 0; i < nf; ++i) {
+    const auto& c = centre[static_cast<std::size_t>(i)];
+    std::vector<char> st(static_cast<std::size_t>(n), 0);
+    for (int k = 0; k < n; ++k) {
+      const int a = std::max(0, k - 1), b = std::min(n - 1, k + 1);
+      Eigen::Vector3d d = c[static_cast<std::size_t>(b)] - c[static_cast<std::size_t>(a)];
+      d -= d.dot(normal) * normal;
+      const double speed = d.norm() / std::max(s.time_s[static_cast<std::size_t>(b)] - s.time_s[static_cast<std::size_t>(a)], 1e-9);
+      st[static_cast<std::size_t>(k)] = height[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] <= h_max && speed <= v_max;
+    }
+    // Short swing gaps inside stance become stance; then short stance runs become swing.
+    for (const char value : {char(0), char(1)})
+      for (const auto& [b, e] : runsOf(st, value))
+        if (e - b < min_frames && b > 0 && e < n)
+          std::fill(st.begin() + b, st.begin() + e, static_cast<char>(1 - value));
+    for (const auto& [b, e] : runsOf(st, 1))
+      if (e - b < min_frames) std::fill(st.begin() + b, st.begin() + e, 0);
+    for (int k = 0; k < n; ++k) s.stance[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)] = st[static_cast<std::size_t>(k)];
+  }
+  return s;
+}
+
+}  // namespace
+
+void ReferenceCleanupOptions::validate() const {
+  auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("cleanup.") + what);
+  };
+  require(std::isfinite(contact_height) && contact_height > 0, "contact_height: must be > 0");
+  require(std::isfinite(contact_speed) && contact_speed > 0, "contact_speed: must be > 0");
+  require(std::isfinite(min_phase_s) && min_phase_s >= 0, "min_phase_s: must be >= 0");
+  require(std::isfinite(blend_s) && blend_s >= 0, "blend_s: must be >= 0");
+  require(std::isfinite(base_weight) && base_weight >= 0, "base_weight: must be >= 0");
+  require(std::isfinite(posture_weight) && posture_weight > 0, "posture_weight: must be > 0");
+  require(std::isfinite(leg_weight) && leg_weight > 0, "leg_weight: must be > 0");
+  require(smoothing_window >= 3 && smoothing_window % 2 == 1, "smoothing_window: must be odd and >= 3");
+}
+
+ContactSchedule findContactSchedule(const ReferenceMotion& motion, IDynamicsModel& model,
+                                    const ReferenceCleanupOptions& options) {
+  if (motion.frames.size() < 2) throw std::invalid_argument("findContactSchedule: fewer than 2 frames");
+  const Setup setup = findFeet(model, options);
+  return schedule(motion, model, setup, options);
+}
+
+std::vector<FootReport> measureFeet(const ReferenceMotion& motion, IDynamicsModel& model,
+                                    const ContactSchedule& schedule) {
+  ReferenceCleanupOptions options;
+  options.feet = schedule.links;
+  const Setup setup = findFeet(model, options);
+  const ModelInfo& info = model.info();
+  const Eigen::Vector3d normal = groundNormal(model);
+  const int n = static_cast<int>(motion.frames.size());
+  std::vector<FootReport> out(setup.feet.size());
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
+  std::vector<Eigen::Vector3d> start(setup.feet.size());
+  for (int k = 0; k < n; ++k) {
+    model.setState(motion.frames[static_cast<std::size_t>(k)].q, v0);
+    for (std::size_t i = 0; i < setup.feet.size(); ++i) {
+      FootReport& r = out[i];
+      r.link = setup.feet[i].link;
+      double h = 0.0;
+      Eigen::Vector3d c;
+      soleState(model, setup.feet[i], h, c);
+      r.penetration_before_m = std::max(r.penetration_before_m, -h);
+      const bool st = schedule.stance[static_cast<std::size_t>(k)][i] != 0;
+      const bool began = st && (k == 0 || schedule.stance[static_cast<std::size_t>(k - 1)][i] == 0);
+      if (began) {
+        start[i] = c;
+        ++r.stance_runs;
+      }
+      if (st) {
+        r.stance_fraction += 1.0 / n;
+        Eigen::Vector3d d = c - start[i];
+        d -= d.dot(normal) * normal;
+        r.skate_before_m = std::max(r.skate_before_m, d.norm());
+      }
+    }
+  }
+  return out;
+}
+
+CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& model,
+                               const ReferenceCleanupOptions& options) {
+  if (motion.frames.size() < 2) throw std::invalid_argument("cleanupReference: fewer than 2 frames");
+  const ModelInfo& info = model.info();
+  const Setup setup = findFeet(model, options);
+  CleanupResult result;
+  result.schedule = schedule(motion, model, setup, options);
+  const ContactSchedule& sched = result.schedule;
+  const int n = static_cast<int>(motion.frames.size());
+  const int nf = static_cast<int>(setup.feet.size());
+  const Eigen::Vector3d normal = groundNormal(model);
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
+
+  // Reference foot poses.
+  std::vector<std::vector<Eigen::Isometry3d>> X_ref(static_cast<std::size_t>(nf), std::vector<Eigen::Isometry3d>(static_cast<std::size_t>(n)));
+  for (int k = 0; k < n; ++k) {
+    model.setState(motion.frames[static_cast<std::size_t>(k)].q, v0);
+    for (int i = 0; i < nf; ++i)
+      X_ref[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] = model.bodyPose(setup.feet[static_cast<std::size_t>(i)].body);
+  }
+
+  // Foot targets: stance pose per run, blended in and out; no sole point below the ground.
+  auto flatPose = [&](const Foot& f, const Eigen::Matrix3d& R_ref, const Eigen::Vector3d& centre_W) {
+    // Heading of the reference foot relative to its flat orientation, about the normal.
+    const Eigen::Matrix3d R_rel = R_ref * f.R_flat.transpose();
+    Eigen::Vector3d x = R_rel * (f.R_flat * Eigen::Vector3d::UnitX());
+    Eigen::Vector3d x0 = f.R_flat * Eigen::Vector3d::UnitX();
+    x -= x.dot(normal) * normal;
+    x0 -= x0.dot(normal) * normal;
+    const double psi = std::atan2(x0.cross(x).dot(normal), x0.dot(x));
+    Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+    X.linear() = Eigen::AngleAxisd(psi, normal).toRotationMatrix() * f.R_flat;
+    X.translation() = centre_W - X.linear() * f.centre;
+    double h = std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X * p));
+    X.translation() -= h * normal;
+    return X;
+  };
+  std::vector<std::vector<Eigen::Isometry3d>> X_goal = X_ref;
+  const double dt = (sched.time_s.back() - sched.time_s.front()) / std::max(1, n - 1);
+  const int blend = static_cast<int>(std::lround(options.blend_s / std::max(dt, 1e-9)));
+  for (int i = 0; i < nf; ++i) {
+    const Foot& f = setup.feet[static_cast<std::size_t>(i)];
+    auto& goal = X_goal[static_cast<std::size_t>(i)];
+    const auto& ref = X_ref[static_cast<std::size_t>(i)];
+    std::vector<char> st(static_cast<std::size_t>(n));
+    for (int k = 0; k < n; ++k) st[static_cast<std::size_t>(k)] = sched.stance[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)];
+    std::vector<double> w(static_cast<std::size_t>(n), 0.0);
+    std::vector<Eigen::Isometry3d> stance_pose(static_cast<std::size_t>(n));
+    for (const auto& [b, e] : runsOf(st, 1)) {
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      Eigen::Vector3d xs = Eigen::Vector3d::Zero();
+      for (int k = b; k < e; ++k) {
+        c += ref[static_cast<std::size_t>(k)] * f.centre;
+        xs += ref[static_cast<std::size_t>(k)].linear() * f.R_flat.transpose() * (f.R_flat * Eigen::Vector3d::UnitX());
+      }
+      c /= static_cast<double>(e - b);
+      // Mean heading: the flat pose of the mean forward direction.
+      const Eigen::Vector3d x_ref_mean = xs.normalized();
+      const Eigen::Vector3d x0 = f.R_flat * Eigen::Vector3d::UnitX();
+      const Eigen::Matrix3d R_heading = Eigen::Quaterniond::FromTwoVectors(x0, x_ref_mean).toRotationMatrix();
+      const Eigen::Isometry3d P = flatPose(f, R_heading * f.R_flat, c);
+      for (int k = std::max(0, b - blend); k < std::min(n, e + blend); ++k) {
+        const double wk = k < b ? smoothstep(1.0 - static_cast<double>(b - k) / (blend + 1))
+                          : k >= e ? smoothstep(1.0 - static_cast<double>(k - e + 1) / (blend + 1))
+                                   : 1.0;
+        if (wk > w[static_cast<std::size_t>(k)]) {
+          w[static_cast<std::size_t>(k)] = wk;
+          stance_pose[static_cast<std::size_t>(k)] = P;
+        }
+      }
+    }
+    for (int k = 0; k < n; ++k) {
+      const double wk = w[static_cast<std::size_t>(k)];
+      Eigen::Isometry3d X = ref[static_cast<std::size_t>(k)];
+      if (wk > 0) {
+        const Eigen::Isometry3d& P = stance_pose[static_cast<std::size_t>(k)];
+        X.translation() = (1 - wk) * X.translation() + wk * P.translation();
+        X.linear() = Eigen::Quaterniond(X.linear()).slerp(wk, Eigen::Quaterniond(P.linear())).toRotationMatrix();
+      }
+      double h = std::numeric_limits<double>::infinity();
+      for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X * p));
+      if (h < 0) X.translation() -= h * normal;
+      goal[static_cast<std::size_t>(k)] = X;
+    }
+  }
+
+  // Posture weights: legs (joints between the base and a foot) give way.
+  const KinematicTree tree = kinematicTreeOf(model);
+  Eigen::VectorXd weights = Eigen::VectorXd::Constant(info.nv, options.posture_weight);
+  weights.head<6>().setConstant(options.base_weight);
+  for (const Foot& f : setup.feet)
+    for (const int j : tree.jointsBetween(tree.base_body, f.body)) weights[info.velocityIndex(j)] = options.leg_weight;
+
+  std::vector<IkTarget> targets(static_cast<std::size_t>(nf));
+  for (int i = 0; i < nf; ++i) {
+    targets[static_cast<std::size_t>(i)].body = setup.feet[static_cast<std::size_t>(i)].body;
+    targets[static_cast<std::size_t>(i)].p_BP = setup.feet[static_cast<std::size_t>(i)].centre;
+    targets[static_cast<std::size_t>(i)].position_weight = kFootPositionWeight;
+    targets[static_cast<std::size_t>(i)].orientation_weight = kFootOrientationWeight;
+  }
+  IkOptions ik;
+  ik.max_iterations = 100;
+  ik.tolerance = 1e-9;
+  result.motion = motion;
+  Eigen::VectorXd q_prev;
+  for (int k = 0; k < n; ++k) {
+    const Eigen::VectorXd& q_ref = motion.frames[static_cast<std::size_t>(k)].q;
+    for (int i = 0; i < nf; ++i) {
+      const Eigen::Isometry3d& X = X_goal[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)];
+      targets[static_cast<std::size_t>(i)].p_WP = X * setup.feet[static_cast<std::size_t>(i)].centre;
+      targets[static_cast<std::size_t>(i)].R_WB = X.linear();
+    }
+    // Warm start from the previous frame's answer (continuous, inside the limits).
+    Eigen::VectorXd q = k > 0 ? q_prev : q_ref;
+    solvePoseIk(model, targets, q_ref, weights, ik, q);
+    Eigen::Quaterniond a(q_ref[3], q_ref[4], q_ref[5], q_ref[6]), b(q[3], q[4], q[5], q[6]);
+    if (a.dot(b) < 0) q.segment<4>(3) *= -1.0;
+    result.motion.frames[static_cast<std::size_t>(k)].q = q;
+    q_prev = q;
+  }
+  estimateDerivatives(result.motion.frames, true, options.smoothing_window, true, true);
+
+  // Report.
+  CleanupReport& rep = result.report;
+  rep.leg_length_m = setup.leg_length_m;
+  double total = 0.0;
+  for (int j = 0; j < info.nj; ++j) {
+    JointChangeReport r;
+    r.joint = info.joint_names[static_cast<std::size_t>(j)];
+    const int qi = info.configurationIndex(j);
+    double sum = 0.0;
+    for (int k = 0; k < n; ++k) {
+      const double d = result.motion.frames[static_cast<std::size_t>(k)].q[qi] - motion.frames[static_cast<std::size_t>(k)].q[qi];
+      r.max_change_rad = std::max(r.max_change_rad, std::fabs(d));
+      sum += d * d;
+    }
+    total += sum;
+    r.rms_change_rad = std::sqrt(sum / n);
+    rep.joints.push_back(r);
+  }
+  rep.rms_change_rad = info.nj > 0 ? std::sqrt(total / (static_cast<double>(info.nj) * n)) : 0.0;
+  for (int k = 0; k < n; ++k)
+    rep.base_position_change_max_m =
+        std::max(rep.base_position_change_max_m,
+                 (result.motion.frames[static_cast<std::size_t>(k)].q.head<3>() - motion.frames[static_cast<std::size_t>(k)].q.head<3>()).norm());
+  rep.feet = measureFeet(motion, model, sched);
+  const std::vector<FootReport> after = measureFeet(result.motion, model, sched);
+  for (std::size_t i = 0; i < rep.feet.size(); ++i) {
+    rep.feet[i].skate_after_m = after[i].skate_before_m;
+    rep.feet[i].penetration_after_m = after[i].penetration_before_m;
+  }
+  limitSummary(info, motion.frames, rep.joints_outside_before, rep.limit_excess_rms_before_rad);
+  limitSummary(info, result.motion.frames, rep.joints_outside_after, rep.limit_excess_rms_after_rad);
+  return result;
+}
+
+void writeContactScheduleCsv(const std::string& path, const ContactSchedule& schedule) {
+  std::FILE* file = std::fopen(path.c_str(), "wb");
+  if (!file) throw InputError(path, 0, std::string("cannot write: ") + std::strerror(errno));
+  std::fprintf(file, "time");
+  for (const std::string& link : schedule.links) std::fprintf(file, ",%s", link.c_str());
+  std::fprintf(file, "\n");
+  for (std::size_t k = 0; k < schedule.time_s.size(); ++k) {
+    std::fprintf(file, "%.17g", schedule.time_s[k]);
+    for (const char s : schedule.stance[k]) std::fprintf(file, ",%d", s ? 1 : 0);
+    std::fprintf(file, "\n");
+  }
+  const bool failed = std::ferror(file) != 0;
+  if (std::fclose(file) != 0 || failed) throw InputError(path, 0, "write failed");
+}
+
+std::string formatCleanupReport(const CleanupReport& report) {
+  std::ostringstream out;
+  char line[256];
+  std::snprintf(line, sizeof line, "clean-up (leg length %.3f m): joint changes (deg), max / RMS\n",
+                report.leg_length_m);
+  out << line;
+  for (const JointChangeReport& j : report.joints) {
+    if (j.max_change_rad < 1e-6) continue;
+    std::snprintf(line, sizeof line, "  %-26s %7.2f / %6.2f\n", j.joint.c_str(),
+                  j.max_change_rad * 180.0 / M_PI, j.rms_change_rad * 180.0 / M_PI);
+    out << line;
+  }
+  std::snprintf(line, sizeof line,
+                "  overall RMS change %.4f rad; base moved by at most %.1f mm\n", report.rms_change_rad,
+                1e3 * report.base_position_change_max_m);
+  out << line;
+  for (const FootReport& f : report.feet) {
+    std::snprintf(line, sizeof line,
+                  "  foot %-22s %2d stance runs (%4.1f %% of frames): skate %.1f -> %.2f mm, "
+                  "penetration %.1f -> %.2f mm\n",
+                  f.link.c_str(), f.stance_runs, 100.0 * f.stance_fraction, 1e3 * f.skate_before_m,
+                  1e3 * f.skate_after_m, 1e3 * f.penetration_before_m, 1e3 * f.penetration_after_m);
+    out << line;
+  }
+  std::snprintf(line, sizeof line,
+                "  joint limits: %d joints outside before, %d after; excess %.4f -> %.4f rad RMS\n",
+                report.joints_outside_before, report.joints_outside_after,
+                report.limit_excess_rms_before_rad, report.limit_excess_rms_after_rad);
+  out << line;
+  return out.str();
+}
+
+}  // namespace dynfilter::io

@@ -1,0 +1,236 @@
+// The balance layer of the QP mode (core/include/dynfilter/core/balance.hpp): centroidal
+// quantities from the mass matrix against an independent sum over the URDF's links (both
+// backends), the start of the CMU walk without a re-seed or a violated limit, and
+// references the figure cannot follow (hanging in the air, a 40° slope) ending in a clear
+// status instead of teleports.
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "dynfilter/core/balance.hpp"
+#include "dynfilter/core/dynamics_filter.hpp"
+#include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/io/retarget.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
+#include "support/test_support.hpp"
+
+namespace dynfilter {
+namespace {
+
+constexpr double kGravity = 9.81;
+
+Eigen::Vector3d comFromLinks(const IDynamicsModel& model, const urdf::RobotDescription& robot) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double mass = 0.0;
+  for (std::size_t i = 0; i < robot.links.size(); ++i) {
+    const auto& inertial = robot.links[i].inertial;
+    if (!inertial.present) continue;
+    sum += inertial.mass_kg * (model.bodyPose(static_cast<int>(i)) * inertial.p_LCom);
+    mass += inertial.mass_kg;
+  }
+  return sum / mass;
+}
+
+class Centroidal : public testing::TestWithParam<std::string> {};
+
+TEST_P(Centroidal, FromTheMassMatrixMatchesTheLinksAndItsOwnDerivative) {
+  const auto robot = urdf::loadUrdfFile(test::humanFigurePath());
+  auto model = test::makeModel(GetParam(), robot, ModelOptions{});
+  const ModelInfo& info = model->info();
+  std::mt19937 rng(7);
+  Eigen::VectorXd q, v, q_plus(info.nq), q_minus(info.nq);
+  Eigen::MatrixXd A(info.nv, info.nv);
+  for (int trial = 0; trial < 10; ++trial) {
+    randomState(info, rng, 1.0, q, v);
+    model->setState(q, v);
+    model->massMatrix(A);
+    const CentroidalState s = centroidalState(A, q, v, info.total_mass);
+    EXPECT_LE((s.c_W - comFromLinks(*model, robot)).norm(), 1e-9) << "trial " << trial;
+    // ċ against a central difference of c along v.
+    const double h = 1e-6;
+    integrateConfiguration(true, q, v, h, q_plus);
+    integrateConfiguration(true, q, v, -h, q_minus);
+    model->setState(q_plus, v);
+    const Eigen::Vector3d c_plus = comFromLinks(*model, robot);
+    model->setState(q_minus, v);
+    const Eigen::Vector3d c_minus = comFromLinks(*model, robot);
+    EXPECT_LE((s.cdot_W - (c_plus - c_minus) / (2 * h)).norm(), 1e-6 * (1.0 + s.cdot_W.norm()))
+        << "trial " << trial;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, Centroidal, testing::Values("dart", "ode"));
+
+FilterOptions qpDefaults(double dt) {
+  FilterOptions options;  // the shipped defaults (tools/config/default.yaml)
+  options.mode = FilterMode::kQp;
+  options.dt_s = dt;
+  return options;
+}
+
+std::vector<ReferenceFrame> walkStart(IDynamicsModel& model, double seconds) {
+  const io::RetargetMapping mapping =
+      io::readRetargetMapping(test::sourcePath("data/mocap/cmu/mappings/131_01.yaml"));
+  io::BvhReadOptions read_options;
+  read_options.length_scale = mapping.length_scale;
+  const io::BvhMotion bvh =
+      io::readBvh(test::sourcePath("data/mocap/cmu/131_01_start_walk_stop.bvh"), read_options);
+  std::vector<ReferenceFrame> frames = io::retargetBvh(bvh, mapping, model).motion.frames;
+  std::size_t n = 0;
+  while (n < frames.size() && frames[n].time_s <= seconds + 1e-9) ++n;
+  frames.resize(n);
+  return frames;
+}
+
+struct WalkWindow {
+  std::uint64_t reseeds = 0;
+  std::uint32_t status_union = 0, violated_union = 0;
+  double max_base_residual_n = 0.0, weight_n = 0.0, legs_rms = 0.0, base_rms = 0.0;
+  bool balance = false;
+};
+
+// The CMU walk's first @p seconds in the QP mode with the defaults, as dynfilter-offline
+// runs it (480 Hz, the clip's future in the preview).
+WalkWindow runWalk(double seconds) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const ModelInfo& info = model->info();
+  const auto frames = walkStart(*model, seconds);
+  const int substeps = 4;
+  FilterOptions options = qpDefaults((frames[1].time_s - frames[0].time_s) / substeps);
+  options.balance.preview_s = 2.0;  // offline: the clip's future
+  DynamicsFilter filter(*model, options, proxqp::factory());
+  filter.reset(frames.front());
+  std::size_t previewed = 0;
+  ReferenceFrame ref(info.nq, info.nv);
+  WalkWindow w;
+  w.weight_n = info.total_mass * kGravity;
+  double legs_sq = 0.0, base_sq = 0.0;
+  long legs_n = 0, ticks = 0;
+  for (std::size_t segment = 0; segment + 1 < frames.size(); ++segment) {
+    for (int s = 0; s < substeps; ++s) {
+      const double t = frames[segment].time_s + s * options.dt_s;
+      while (previewed < frames.size() && frames[previewed].time_s <= t + options.balance.preview_s)
+        filter.previewFrame(frames[previewed++]);
+      interpolateReference(true, frames[segment], frames[segment + 1], t, ref);
+      const FilterOutput& out = filter.step(ref);
+      ++ticks;
+      w.status_union |= out.status;
+      w.violated_union |= out.qp_violated;
+      w.max_base_residual_n = std::max(w.max_base_residual_n, out.base_residual_n);
+      base_sq += out.tracking_error.head<3>().squaredNorm();
+      for (int j = 0; j < info.nj; ++j) {
+        const std::string& name = info.joint_names[static_cast<std::size_t>(j)];
+        if (name.find("hip") == std::string::npos && name.find("knee") == std::string::npos &&
+            name.find("ankle") == std::string::npos)
+          continue;
+        legs_sq += std::pow(out.tracking_error[info.velocityIndex(j)], 2);
+        ++legs_n;
+      }
+    }
+  }
+  w.legs_rms = std::sqrt(legs_sq / legs_n);
+  w.base_rms = std::sqrt(base_sq / ticks);
+  w.reseeds = filter.output().counters.reseeds;
+  w.balance = filter.balance() != nullptr;
+  return w;
+}
+
+TEST(Balance, StartOfTheCmuWalkWithTheDefaultsNeedsNoReseedAndKeepsEveryLimit) {
+  const WalkWindow w = runWalk(1.0);  // the stance before the first step
+  RecordProperty("legs_rms_rad", std::to_string(w.legs_rms));
+  RecordProperty("base_rms_m", std::to_string(w.base_rms));
+  EXPECT_TRUE(w.balance);
+  EXPECT_EQ(w.reseeds, 0u);
+  EXPECT_EQ(w.status_union & (kStatusReseeded | kStatusQpFallback | kStatusQpRelaxed |
+                              kStatusReferenceInfeasible | kStatusNonFinite),
+            0u)
+      << "status union " << w.status_union;
+  EXPECT_EQ(w.violated_union, 0u) << "no constraint family violated (pulling, friction, CoP, torque)";
+  EXPECT_LE(w.max_base_residual_n, 1e-8 * w.weight_n);
+  // Measured per tick: legs 0.14 rad, base 0.034 m (DART, defaults). The target for
+  // the base is 5 cm; the legs' 0.08 rad is not met yet (docs/balance.md).
+  EXPECT_LE(w.legs_rms, 0.18);
+  EXPECT_LE(w.base_rms, 0.05);
+}
+
+TEST(Balance, FirstStepsOfTheCmuWalkNeedNoReseed) {
+  // Through the first steps, to 1.85 s (dynfilter-offline with main's filter re-seeds at
+  // 1.47 s on this clip). Tracking is loose here (legs 0.31 rad, base 0.11 m measured) and
+  // some ticks need a QP relaxation: not the targets yet. Checked: this window
+  // also passes with the contact schedule reverted to the 2 cm lift-off rule, so it does
+  // not single out that mechanism.
+  const WalkWindow w = runWalk(1.85);
+  EXPECT_EQ(w.reseeds, 0u);
+  EXPECT_EQ(w.status_union & (kStatusReseeded | kStatusQpFallback | kStatusNonFinite), 0u)
+      << "status union " << w.status_union;
+  EXPECT_LE(w.max_base_residual_n, 1e-8 * w.weight_n);
+  EXPECT_LE(w.base_rms, 0.15);
+}
+
+// A standing reference the figure cannot follow: reports why, never re-seeds.
+struct Unfollowable {
+  std::uint32_t status = 0;
+  int reason = 0;
+  std::uint64_t reseeds = 0;
+  bool finite = true;
+};
+
+Unfollowable standStill(const ModelOptions& model_options, double lift_m, double seconds) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), model_options);
+  const ModelInfo& info = model->info();
+  ReferenceFrame ref(info.nq, info.nv);
+  ref.q = info.neutralConfiguration();
+  ModelOptions flat;
+  auto level = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), flat);
+  ref.q[2] = standingBaseHeight(*level, ref.q) + lift_m;
+  const FilterOptions options = qpDefaults(1e-3);
+  DynamicsFilter filter(*model, options, proxqp::factory());
+  filter.reset(ref);
+  Unfollowable u;
+  for (int k = 0; k < static_cast<int>(seconds / options.dt_s); ++k) {
+    ref.time_s = k * options.dt_s;
+    const FilterOutput& out = filter.step(ref);
+    u.finite = u.finite && out.q.allFinite() && out.tau_J.allFinite();
+  }
+  u.status = filter.output().status;
+  u.reason = filter.output().infeasible_reason;
+  u.reseeds = filter.output().counters.reseeds;
+  return u;
+}
+
+TEST(Balance, AReferenceHangingInTheAirEndsInAClearStatusNotInTeleports) {
+  const Unfollowable u = standStill(ModelOptions{}, 0.5, 1.0);
+  EXPECT_TRUE(u.finite);
+  EXPECT_NE(u.status & kStatusReferenceInfeasible, 0u) << "status " << u.status;
+  EXPECT_EQ(u.reason, static_cast<int>(InfeasibleReason::kNoSupport));
+  EXPECT_EQ(u.reseeds, 0u);
+  EXPECT_NE(std::string(toString(InfeasibleReason::kNoSupport)).find("hanging"), std::string::npos);
+}
+
+TEST(Balance, StandingOnA40DegreeSlopeEndsInAClearStatusNotInTeleports) {
+  ModelOptions steep;
+  steep.environment.ground = GroundPlane::sloped(40.0 * M_PI / 180.0);
+  const Unfollowable u = standStill(steep, 0.0, 0.6);
+  EXPECT_TRUE(u.finite);
+  EXPECT_NE(u.status & kStatusReferenceInfeasible, 0u) << "status " << u.status;
+  EXPECT_EQ(u.reason, static_cast<int>(InfeasibleReason::kOutsideCone));
+  EXPECT_EQ(u.reseeds, 0u);
+}
+
+TEST(Balance, AFollowableStandingReferenceIsNotReportedInfeasible) {
+  // Control for the two above: the same standing reference on level ground.
+  const Unfollowable u = standStill(ModelOptions{}, 0.0, 0.5);
+  EXPECT_TRUE(u.finite);
+  EXPECT_EQ(u.status & kStatusReferenceInfeasible, 0u) << "status " << u.status;
+  EXPECT_EQ(u.reseeds, 0u);
+}
+
+}  // namespace
+}  // namespace dynfilter
