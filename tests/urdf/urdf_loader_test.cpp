@@ -297,6 +297,26 @@ TEST(UrdfLoader, MeshErrorsNameTheFileAndTheLine) {
       withMesh("file://" + base + "/dynfilter_test_meshes/meshes/frustum_sole.obj", ""), "arm.urdf"));
 }
 
+TEST(UrdfLoader, PackageUrisResolveFromTheFoldersAboveTheUrdf) {
+  // No --package-path, no ROS_PACKAGE_PATH: a package folder beside (or above) the URDF is
+  // found, as in installed descriptions (<share>/<pkg>/robots/<robot>/urdf/robot.urdf).
+  const std::string base = test::testModelPath("") + "/dynfilter_test_meshes/meshes";
+  const std::string xml = arm("revolute", "1", R"(  <joint name="foot_joint" type="fixed"><parent link="upper"/><child link="foot"/></joint>
+  <link name="foot">
+    <collision><geometry><mesh filename="package://dynfilter_test_meshes/meshes/box_sole.stl"/></geometry></collision>
+  </link>
+)");
+  const RobotDescription found = loadUrdfString(xml, "arm.urdf", {}, base);
+  EXPECT_EQ(found.links[2].collisions[0].hull.vertices_S.size(), 8u);
+  // From a folder with no such package above it, the error says where it looked.
+  try {
+    loadUrdfString(xml, "arm.urdf", {}, "/tmp");
+    FAIL() << "expected a ModelError";
+  } catch (const ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("the folders above /tmp"), std::string::npos) << e.what();
+  }
+}
+
 TEST(UrdfLoader, DanglingLinkReferenceNamesTheJoint) {
   std::string xml = arm();
   xml.replace(xml.find("<child link=\"upper\"/>"), 21, "<child link=\"uper\"/>");

@@ -72,6 +72,16 @@ std::string resolveMeshUri(const std::string& uri, const std::string& base_direc
       if (dir.filename() == package && isFile(dir / inside)) return (dir / inside).string();
       if (isFile(dir / package / inside)) return (dir / package / inside).string();
     }
+    // Last, the folders above the URDF: a description installed as <pkg>/urdf/robot.urdf
+    // (or beside a folder named <pkg>) resolves without any path given.
+    if (!base_directory.empty()) {
+      for (fs::path dir = fs::absolute(base_directory); !dir.empty(); dir = dir.parent_path()) {
+        if (dir.filename() == package && isFile(dir / inside)) return (dir / inside).string();
+        if (isFile(dir / package / inside)) return (dir / package / inside).string();
+        if (dir == dir.parent_path()) break;
+      }
+      roots.push_back("the folders above " + base_directory);
+    }
     std::string searched;
     for (const auto& r : roots) searched += (searched.empty() ? "" : ", ") + r;
     throw std::runtime_error("mesh \"" + uri + "\" not found: package \"" + package +

@@ -11,7 +11,8 @@
 namespace dynfilter::urdf {
 
 /// Resolves a URDF mesh URI to an existing file: `package://NAME/rest` through
-/// @p package_paths then ROS_PACKAGE_PATH (a directory that is NAME or holds NAME),
+/// @p package_paths, then ROS_PACKAGE_PATH (a directory that is NAME or holds NAME), then
+/// the folders above @p base_directory (one that is NAME or holds NAME),
 /// `file:///abs`, an absolute path, or a path relative to @p base_directory. Throws
 /// std::runtime_error naming the URI and the places searched when no file exists.
 std::string resolveMeshUri(const std::string& uri, const std::string& base_directory,
