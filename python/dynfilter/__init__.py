@@ -179,21 +179,26 @@ def reference(model: Model, source: Any, smoothing_window: int = 7) -> Reference
 
 
 def retarget(bvh: Union[PathLike, Bvh], mapping: Union[PathLike, RetargetMapping],
-             model: Model) -> RetargetResult:
+             model: Model, cleanup: bool = True) -> RetargetResult:
     """Retargets a BVH clip (path or :class:`Bvh` read with the mapping's length_scale) with
-    a mapping (YAML path or :class:`RetargetMapping`) onto ``model``, as dynfilter-bvh2ref.
-    ``result.reference`` is the :class:`Reference`; ``result.limit_report`` the limit check."""
+    a mapping (YAML path or :class:`RetargetMapping`) onto ``model`` and, with ``cleanup``
+    (dynfilter-bvh2ref's default), cleans it up: contact schedule, stance feet on the
+    ground, joints inside their limits (the mapping's ``cleanup`` section).
+    ``result.reference`` is the :class:`Reference` to filter; ``result.write_csv(path,
+    model)`` writes what dynfilter-bvh2ref writes; ``limit_report`` and ``cleanup_report``
+    are its report."""
     if not isinstance(mapping, _dynfilter.Mapping):
         mapping = read_mapping(os.fspath(mapping))
     if isinstance(bvh, Bvh):
-        return _dynfilter.retarget(bvh, mapping, model)
-    return _dynfilter.retarget_file(os.fspath(bvh), mapping, model)
+        return _dynfilter.retarget(bvh, mapping, model, cleanup)
+    return _dynfilter.retarget_file(os.fspath(bvh), mapping, model, cleanup)
 
 
 def filter_motion(model: Model, reference_motion: Any,
                   config_source: Union[None, PathLike, Mapping[str, Any], Config] = None, *,
                   mode: Optional[str] = None, tick_hz: float = 500.0, every_tick: bool = False,
-                  output_csv: Optional[PathLike] = None, max_seconds: Optional[float] = None,
+                  preview_s: Optional[float] = None, output_csv: Optional[PathLike] = None,
+                  max_seconds: Optional[float] = None,
                   progress: Optional[Callable[[float], None]] = None) -> dict:
     """Filters a whole reference motion: the loop of ``dynfilter-offline`` with the same
     options (``--config``, ``--mode``, ``--tick-hz``, ``--every-tick``) and the same numbers.
@@ -223,7 +228,7 @@ def filter_motion(model: Model, reference_motion: Any,
     ref = reference(model, reference_motion)
     if max_seconds is not None:
         ref = ref.truncated(max_seconds)
-    return _dynfilter.filter_reference(model, ref, cfg, tick_hz, every_tick,
+    return _dynfilter.filter_reference(model, ref, cfg, tick_hz, every_tick, preview_s,
                                        os.fspath(output_csv) if output_csv is not None else "",
                                        progress)
 

@@ -11,8 +11,9 @@ reference motions. A manifest (``.csv`` with a header, or ``.yaml``: a list or
 ``max_seconds``, ``mode``; relative paths are relative to the manifest.
 
 Output per clip, in ``<out>/<name>/``: ``filtered.csv`` and ``filtered.contacts.csv`` (the
-files of ``dynfilter-offline``), ``reference.csv`` for a BVH clip (as ``dynfilter-bvh2ref``
-writes it; the filter reads it back, so the result is that of the two tools), and
+files of ``dynfilter-offline``), ``reference.csv`` and ``reference.stance.csv`` for a BVH
+clip (retargeted and cleaned up as ``dynfilter-bvh2ref`` writes them; the filter reads the
+CSV back, so the result is that of the two tools), and
 ``done.json`` (the clip's summary row and the hash of everything that went in). A re-run
 skips a clip whose ``done.json`` has the same input hash (input file, mapping, model,
 configuration and options); a failed clip leaves no ``done.json`` and is tried again.
@@ -246,7 +247,7 @@ def run_clip(clip: Clip, settings: Settings) -> dict:
                                  "no --mapping)")
             result = dynfilter.retarget(clip.input, clip.mapping, model)
             source = str(folder / "reference.csv")
-            result.reference.write_csv(source, model)
+            result.write_csv(source, model)
         out = dynfilter.filter_motion(
             model, source, cfg, mode=clip.mode or settings.mode, tick_hz=settings.tick_hz,
             output_csv=folder / "filtered.csv",

@@ -237,7 +237,7 @@ class Filter {
 // writes the tool's two CSV files too.
 py::dict filterMotion(const Model& model, const Reference& reference,
                       const io::FilterConfig& config, double tick_hz, bool every_tick,
-                      const std::string& output_csv,
+                      std::optional<double> preview_s, const std::string& output_csv,
                       const std::function<void(double)>& progress) {
   config.filter.validate();
   auto engine = model.make(config.environment);
@@ -251,6 +251,7 @@ py::dict filterMotion(const Model& model, const Reference& reference,
   io::OfflineRunOptions options;
   options.tick_hz = tick_hz;
   options.every_tick = every_tick;
+  if (preview_s) options.preview_s = *preview_s;
   FilterCounters counters;
   io::OfflineSchedule schedule;
   {
@@ -374,7 +375,7 @@ void bindFilter(py::module_& m) {
 
   m.def("filter_reference", &filterMotion, py::arg("model"), py::arg("reference"),
         py::arg("config"), py::arg("tick_hz") = 500.0, py::arg("every_tick") = false,
-        py::arg("output_csv") = "", py::arg("progress") = nullptr,
+        py::arg("preview_s") = std::nullopt, py::arg("output_csv") = "", py::arg("progress") = nullptr,
         "The loop of dynfilter-offline (bit-identical outputs); see dynfilter.filter_motion.");
 }
 

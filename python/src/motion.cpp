@@ -9,6 +9,7 @@
 #include "bindings.hpp"
 #include "dynfilter/io/bvh.hpp"
 #include "dynfilter/io/input_error.hpp"
+#include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
 
 namespace dynfilter::python {
@@ -93,6 +94,38 @@ Reference makeReference(const Model& model, const Eigen::VectorXd& time, const R
   if (!v || !vdot)
     io::estimateDerivatives(ref.motion.frames, info.floating_base, smoothing_window, !v, !vdot);
   return ref;
+}
+
+Reference referenceOf(const io::ReferenceMotion& motion) {
+  Reference ref;
+  ref.motion = motion;
+  ref.nq = static_cast<int>(motion.frames.front().q.size());
+  ref.nv = static_cast<int>(motion.frames.front().v.size());
+  return ref;
+}
+
+// A retargeted clip and, as dynfilter-bvh2ref does by default, its clean-up (contact
+// schedule, stance feet on the ground, joints in their limits).
+struct Retargeted {
+  io::RetargetResult result;
+  std::optional<io::CleanupResult> cleanup;
+
+  const io::ReferenceMotion& motion() const { return cleanup ? cleanup->motion : result.motion; }
+};
+
+Retargeted retargetClip(const io::RetargetResult& result, const io::RetargetMapping& mapping,
+                        Model& model, bool cleanup) {
+  Retargeted r{result, std::nullopt};
+  if (cleanup) r.cleanup = io::cleanupReference(result.motion, *model.engine, mapping.cleanup);
+  return r;
+}
+
+// reference.csv -> reference.stance.csv, as dynfilter-bvh2ref names it.
+std::string schedulePath(const std::string& csv) {
+  const std::string ext = ".csv";
+  const bool has_ext =
+      csv.size() > ext.size() && csv.compare(csv.size() - ext.size(), ext.size(), ext) == 0;
+  return (has_ext ? csv.substr(0, csv.size() - ext.size()) : csv) + ".stance.csv";
 }
 
 }  // namespace
@@ -194,44 +227,60 @@ void bindMotion(py::module_& m) {
       .def_readwrite("length_scale", &io::RetargetMapping::length_scale)
       .def_readwrite("skip_frames", &io::RetargetMapping::skip_frames)
       .def_readwrite("clamp_to_limits", &io::RetargetMapping::clamp_to_limits)
-      .def_readwrite("smoothing_window", &io::RetargetMapping::smoothing_window);
+      .def_readwrite("smoothing_window", &io::RetargetMapping::smoothing_window)
+      .def_readwrite("allow_unmapped", &io::RetargetMapping::allow_unmapped);
   m.def("read_mapping", &io::readRetargetMapping, py::arg("path"),
         "Reads a mapping file. Raises InputError naming file, line and column.");
 
-  py::class_<io::RetargetResult>(m, "RetargetResult")
-      .def_property_readonly("reference", [](const io::RetargetResult& r) {
-        Reference ref;
-        ref.motion = r.motion;
-        ref.nq = r.motion.frames.front().q.size();
-        ref.nv = r.motion.frames.front().v.size();
-        return ref;
-      })
-      .def_readonly("ground_offset_m", &io::RetargetResult::ground_offset_m)
-      .def_readonly("first_bvh_frame", &io::RetargetResult::first_bvh_frame)
-      .def_readonly("clamped", &io::RetargetResult::clamped)
-      .def_readonly("unmapped_joints", &io::RetargetResult::unmapped_joints)
-      .def_property_readonly("limits", [](const io::RetargetResult& r) {
+  py::class_<Retargeted>(m, "RetargetResult",
+                         "A retargeted clip (and its clean-up, as dynfilter-bvh2ref does unless "
+                         "--no-cleanup).")
+      .def_property_readonly("reference", [](const Retargeted& r) { return referenceOf(r.motion()); },
+                             "The reference to filter: cleaned up when cleanup was asked for.")
+      .def_property_readonly("raw_reference",
+                             [](const Retargeted& r) { return referenceOf(r.result.motion); },
+                             "The retargeted reference before any clean-up.")
+      .def_property_readonly("cleaned", [](const Retargeted& r) { return r.cleanup.has_value(); })
+      .def_property_readonly("ground_offset_m", [](const Retargeted& r) { return r.result.ground_offset_m; })
+      .def_property_readonly("first_bvh_frame", [](const Retargeted& r) { return r.result.first_bvh_frame; })
+      .def_property_readonly("clamped", [](const Retargeted& r) { return r.result.clamped; })
+      .def_property_readonly("unmapped_joints", [](const Retargeted& r) { return r.result.unmapped_joints; })
+      .def_property_readonly("limits", [](const Retargeted& r) {
         py::list out;
-        for (const auto& l : r.limits)
+        for (const auto& l : r.result.limits)
           out.append(py::dict(py::arg("joint") = l.joint, py::arg("frames_outside") = l.frames_outside,
                               py::arg("fraction_outside") = l.fraction_outside,
                               py::arg("worst_excess_rad") = l.worst_excess_rad,
                               py::arg("worst_frame") = l.worst_frame, py::arg("min_rad") = l.min_rad,
                               py::arg("max_rad") = l.max_rad));
         return out;
-      }, "One dict per model joint: frames outside its limits, worst excess, range.")
-      .def_property_readonly("limit_report", &io::formatLimitReport);
+      }, "One dict per model joint: frames outside its limits (as retargeted), worst excess, range.")
+      .def_property_readonly("limit_report",
+                             [](const Retargeted& r) { return io::formatLimitReport(r.result); })
+      .def_property_readonly("cleanup_report", [](const Retargeted& r) {
+        return r.cleanup ? io::formatCleanupReport(r.cleanup->report) : std::string();
+      })
+      .def("write_csv",
+           [](const Retargeted& r, const std::string& path, const Model& model) {
+             if (r.cleanup) io::writeContactScheduleCsv(schedulePath(path), r.cleanup->schedule);
+             io::writeReferenceMotionCsv(path, model.engine->info(), r.motion());
+           },
+           py::arg("path"), py::arg("model"),
+           "Writes the reference CSV (and, when cleaned up, its contact schedule "
+           "<stem>.stance.csv) as dynfilter-bvh2ref does.");
   m.def("retarget_file",
-        [](const std::string& bvh_path, const io::RetargetMapping& mapping, Model& model) {
-          return io::retargetBvhFile(bvh_path, mapping, *model.engine);
+        [](const std::string& bvh_path, const io::RetargetMapping& mapping, Model& model,
+           bool cleanup) {
+          return retargetClip(io::retargetBvhFile(bvh_path, mapping, *model.engine), mapping,
+                              model, cleanup);
         },
-        py::arg("bvh_path"), py::arg("mapping"), py::arg("model"),
+        py::arg("bvh_path"), py::arg("mapping"), py::arg("model"), py::arg("cleanup") = true,
         "Reads bvh_path with the mapping's length scale and retargets it (as dynfilter-bvh2ref).");
   m.def("retarget",
-        [](const io::BvhMotion& bvh, const io::RetargetMapping& mapping, Model& model) {
-          return io::retargetBvh(bvh, mapping, *model.engine);
+        [](const io::BvhMotion& bvh, const io::RetargetMapping& mapping, Model& model, bool cleanup) {
+          return retargetClip(io::retargetBvh(bvh, mapping, *model.engine), mapping, model, cleanup);
         },
-        py::arg("bvh"), py::arg("mapping"), py::arg("model"),
+        py::arg("bvh"), py::arg("mapping"), py::arg("model"), py::arg("cleanup") = true,
         "Retargets a clip read with the mapping's length_scale and all frames kept.");
 }
 

@@ -11,14 +11,14 @@ from conftest import MODEL, ROOT, make_collection, read_csv, read_summary, run_b
 def test_batch_two_workers_reports_failures_and_skips_what_is_done(tmp_path):
     manifest, errors = make_collection(tmp_path / "in")
     out = tmp_path / "out"
-    r = run_batch([manifest, "-o", out, "--workers", "2", "--max-seconds", "1.5",
+    r = run_batch([manifest, "-o", out, "--workers", "2", "--max-seconds", "1.0",
                    "--progress", "plain"])
     assert r.returncode == 1, r.stderr  # some clips failed, the others were filtered
     rows = read_summary(out)
     assert list(rows) == ["walk", "kick", "squat", "broken", "lonely"]
     for name in ("walk", "kick", "squat"):
         assert rows[name]["status"] == "ok", rows[name]["error"]
-        assert int(rows[name]["frames"]) == 181  # 1.5 s at 120 Hz
+        assert int(rows[name]["frames"]) == 121  # 1 s at 120 Hz
         assert (out / name / "filtered.csv").exists() and (out / name / "done.json").exists()
     assert (out / "walk" / "reference.csv").exists()
     for name, message in errors.items():
@@ -50,20 +50,20 @@ def test_batch_two_workers_reports_failures_and_skips_what_is_done(tmp_path):
 
     # The batch's file is filter_motion's on the same input.
     model = dynfilter.Model(str(MODEL))
-    direct = dynfilter.filter_motion(model, str(tmp_path / "in" / "squat.csv"), max_seconds=1.5)
+    direct = dynfilter.filter_motion(model, str(tmp_path / "in" / "squat.csv"), max_seconds=1.0)
     header, data = read_csv(out / "squat" / "filtered.csv")
     q0 = header.index("base_x")
     assert np.array_equal(np.array([[float(x) for x in r[q0:q0 + model.nq]] for r in data]),
                           direct["q"])
 
     # Re-run: done clips are skipped, failed ones tried again; a changed input is redone.
-    r = run_batch([manifest, "-o", out, "--workers", "2", "--max-seconds", "1.5",
+    r = run_batch([manifest, "-o", out, "--workers", "2", "--max-seconds", "1.0",
                    "--progress", "none"])
     rows = read_summary(out)
     assert [rows[n]["status"] for n in rows] == ["skipped", "skipped", "skipped", "failed", "failed"]
     squat = tmp_path / "in" / "squat.csv"
     squat.write_text(squat.read_text().replace("\n0,", "\n0.0,", 1))
-    r = run_batch([manifest, "-o", out, "--workers", "2", "--max-seconds", "1.5",
+    r = run_batch([manifest, "-o", out, "--workers", "2", "--max-seconds", "1.0",
                    "--progress", "none"])
     rows = read_summary(out)
     assert rows["squat"]["status"] == "ok" and rows["walk"]["status"] == "skipped"

@@ -78,9 +78,14 @@ def test_retarget_and_filter_equal_bvh2ref_then_offline(tmp_path, model):
     assert r.returncode == 0, r.stderr
     result = dynfilter.retarget(str(bvh), str(mapping), model)
     ref_py = tmp_path / "ref_py.csv"
-    result.reference.write_csv(str(ref_py), model)
+    result.write_csv(str(ref_py), model)
     assert ref_py.read_text() == ref_tool.read_text()
-    assert result.limit_report and len(result.limits) == model.nj
+    assert (tmp_path / "ref_py.stance.csv").read_text() == (tmp_path / "ref_tool.stance.csv").read_text()
+    assert result.cleaned and result.limit_report and len(result.limits) == model.nj
+    assert result.cleanup_report in r.stdout
+    # Without the clean-up, the retargeted motion itself.
+    raw = dynfilter.retarget(str(bvh), str(mapping), model, cleanup=False)
+    assert not raw.cleaned and np.array_equal(raw.reference.q, result.raw_reference.q)
     out_tool = tmp_path / "tool.csv"
     r = run_tool([offline, ref_tool, "-o", out_tool, "--mode", "qp", "-q"])
     assert r.returncode == 0, r.stderr
