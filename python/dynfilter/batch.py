@@ -265,8 +265,11 @@ def run_clip(clip: Clip, settings: Settings) -> dict:
         return row
 
 
-def _run_clip_args(args):
-    return run_clip(*args)
+def _input_size(clip: Clip) -> int:
+    try:
+        return Path(clip.input).stat().st_size
+    except OSError:
+        return 0
 
 
 # ----------------------------------------------------------------------------- summary
@@ -334,6 +337,9 @@ def run_batch(clips: list[Clip], settings: Settings, workers: int = 1,
     """Filters every clip; returns the summary rows in clip order."""
     Path(settings.out_dir).mkdir(parents=True, exist_ok=True)
     rows: list[Optional[dict]] = [None] * len(clips)
+    # Largest inputs first (their size is the best cheap guess of their cost), so that the
+    # last clips to finish are short ones and the workers end together.
+    order = sorted(range(len(clips)), key=lambda i: -_input_size(clips[i]))
     bar = _Progress(len(clips), progress)
     try:
         if ray_address is not None:
@@ -353,7 +359,7 @@ def run_batch(clips: list[Clip], settings: Settings, workers: int = 1,
                     ray.init(address=ray_address, log_to_driver=False)
             try:
                 task = ray.remote(num_cpus=1, max_retries=0)(run_clip)
-                pending = {task.remote(c, settings): i for i, c in enumerate(clips)}
+                pending = {task.remote(clips[i], settings): i for i in order}
                 while pending:
                     ready, _ = ray.wait(list(pending), num_returns=1)
                     for ref in ready:
@@ -368,8 +374,8 @@ def run_batch(clips: list[Clip], settings: Settings, workers: int = 1,
                 if started:
                     ray.shutdown()
         elif workers <= 1:
-            for i, c in enumerate(clips):
-                rows[i] = run_clip(c, settings)
+            for i in order:
+                rows[i] = run_clip(clips[i], settings)
                 bar.update(rows[i])
         else:
             import multiprocessing
@@ -378,7 +384,7 @@ def run_batch(clips: list[Clip], settings: Settings, workers: int = 1,
             context = multiprocessing.get_context("forkserver")
             context.set_forkserver_preload(["numpy", "dynfilter"])
             with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-                futures = {pool.submit(run_clip, c, settings): i for i, c in enumerate(clips)}
+                futures = {pool.submit(run_clip, clips[i], settings): i for i in order}
                 for fut in as_completed(futures):
                     i = futures[fut]
                     try:
