@@ -86,3 +86,29 @@ if [ -x "$venv/bin/python" ] &&
     "example-robot-data==$EXAMPLE_ROBOT_DATA_VERSION" ||
     echo "warning: could not install example-robot-data into $venv: no G1 demo" >&2
 fi
+
+# The Python package dynfilter (python/, README "Python"): pybind11 and the Python headers
+# for the native module; pytest (its ctest suites), PyYAML (manifests), tqdm (progress) and
+# Ray (dynfilter.batch --ray-address) in the venv. Only the Python package needs them: warn, go on.
+python_packages=(pybind11-dev python3-dev)
+missing=()
+for p in "${python_packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "installing: ${missing[*]}"
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" ||
+    echo "warning: could not install ${missing[*]}: no Python bindings (README, \"Python\")" >&2
+fi
+PYTHON_WHEELS=(pytest==9.2.0 PyYAML==6.0.4 tqdm==4.70.1 ray==2.60.0)
+if [ -x "$venv/bin/python" ] && ! "$venv/bin/python" - "${PYTHON_WHEELS[@]}" <<'PY' 2>/dev/null
+import importlib.metadata as m, sys
+sys.exit(any(m.version(n) != v for n, v in (w.split("==") for w in sys.argv[1:])))
+PY
+then
+  echo "installing ${PYTHON_WHEELS[*]} into $venv"
+  "$venv/bin/python" -m pip install -q --disable-pip-version-check "${PYTHON_WHEELS[@]}" ||
+    echo "warning: could not install ${PYTHON_WHEELS[*]} into $venv: no Python tests or" \
+         "batch on Ray (README, \"Python\")" >&2
+fi

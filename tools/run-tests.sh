@@ -31,7 +31,7 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
     -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize=vptr -fno-sanitize-recover=undefined -fsanitize-recover=alignment -fno-omit-frame-pointer -DEIGEN_MALLOC_ALREADY_ALIGNED=1" \
-    -DDYNFILTER_BUILD_BENCHMARKS=OFF -DDYNFILTER_LCM_VENV="$PWD/build/venv"
+    -DDYNFILTER_BUILD_BENCHMARKS=OFF -DDYNFILTER_BUILD_PYTHON=OFF -DDYNFILTER_LCM_VENV="$PWD/build/venv"
   # Every test executable and fuzz replay driver but test_processes (real-time rates; its
   # tests are excluded anyway). The allocation tests skip here: ASan owns malloc, so
   # tests/support/allocation_counter.cpp counts nothing in this build.

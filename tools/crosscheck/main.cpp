@@ -25,6 +25,7 @@
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/io/filtered_motion_check.hpp"
 #include "dynfilter/io/filtered_motion_reader.hpp"
 #include "dynfilter/io/input_error.hpp"
 #include "dynfilter/io/reference_motion.hpp"
@@ -76,31 +77,9 @@ int checkFiltered(const urdf::RobotDescription& robot, const std::string& backen
   auto model = makeModel(backend, robot, options);
   const ModelInfo& info = model->info();
   const auto frames = io::readFilteredMotion(filtered_path, info);
-  const int nv = info.nv, nb = info.floating_base ? 6 : 0;
-  Eigen::MatrixXd A(nv, nv);
-  Eigen::VectorXd b(nv), r(nv);
-  Matrix6Xd J(6, nv);
-  double worst_base = 0.0, worst_all = 0.0;
-  std::size_t worst_frame = 0;
-  for (std::size_t k = 0; k < frames.size(); ++k) {
-    const auto& f = frames[k];
-    model->setState(f.state.q, f.state.v);
-    model->massMatrix(A);
-    model->bias(b);
-    r = A * f.state.vdot + b;
-    r.tail(info.nj) -= f.tau_J;
-    for (const auto& c : f.contacts) {
-      const Eigen::Vector3d p_BC = model->bodyPose(c.body).inverse() * c.p_WC;
-      model->pointJacobian(c.body, p_BC, J);
-      r -= J.transpose() * c.wrench_W;
-    }
-    const double base = nb ? r.head(nb).cwiseAbs().maxCoeff() : 0.0;
-    if (base > worst_base) {
-      worst_base = base;
-      worst_frame = k;
-    }
-    worst_all = std::max(worst_all, r.cwiseAbs().maxCoeff());
-  }
+  const io::FilteredMotionResiduals res = io::evaluateFilteredMotion(*model, frames);
+  const double worst_base = res.worst_base_n, worst_all = res.worst_all;
+  const std::size_t worst_frame = res.worst_base_frame;
   const double weight = info.total_mass * 9.81;
   std::printf("Eq. 12 of %s (%zu frames) re-evaluated with the %s backend:\n",
               filtered_path.c_str(), frames.size(), backend.c_str());

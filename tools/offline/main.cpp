@@ -6,7 +6,8 @@
 // The filter ticks at about --tick-hz (default 500 Hz; the config's dt_s is the real-time
 // process's tick and is not used here) against the reference interpolated between its
 // frames; for a uniformly sampled reference the tick is a whole fraction of the frame
-// period. One output row per reference frame (or per tick with --every-tick),
+// period (the loop is io::runOffline, io/offline_run.hpp, shared with the Python binding).
+// One output row per reference frame (or per tick with --every-tick),
 // plus <output stem>.contacts.csv. Nothing is written unless the whole run succeeds.
 #include <algorithm>
 #include <chrono>
@@ -27,6 +28,7 @@
 #include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/io/config.hpp"
 #include "dynfilter/io/filtered_motion.hpp"
+#include "dynfilter/io/offline_run.hpp"
 #include "dynfilter/io/reference_motion.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "run_summary.hpp"
@@ -181,30 +183,10 @@ int main(int argc, char** argv) {
     model_options.environment = config.environment;
     auto model = makeModel(backend, robot, model_options);
 
-    // Uniformly sampled references (the usual mocap case) are filtered with a whole number
-    // of ticks per frame, so that every frame time is a tick; otherwise at --tick-hz with
-    // each frame written by the tick nearest to it.
-    const auto& frames = motion.frames;
-    const double t0 = frames.front().time_s, t_end = frames.back().time_s;
-    const double period = (t_end - t0) / static_cast<double>(frames.size() - 1);
-    bool uniform = true;
-    for (std::size_t i = 1; i < frames.size(); ++i)
-      uniform &= std::abs(frames[i].time_s - frames[i - 1].time_s - period) <= 1e-6 * period;
-    const long substeps = uniform ? std::max(1L, std::lround(period * tick_hz)) : 0;
-    config.filter.dt_s = uniform ? period / static_cast<double>(substeps) : 1.0 / tick_hz;
-    const double dt = config.filter.dt_s;
-    const long ticks = uniform ? static_cast<long>(frames.size() - 1) * substeps + 1
-                               : std::lround(std::floor((t_end - t0) / dt + 1e-9)) + 1;
-
-    // Offline the whole clip is known: the balance layer may look at all of it.
-    config.filter.balance.preview_s = std::isnan(preview_s) ? t_end - t0 : preview_s;
-    config.filter.balance.preview_capacity =
-        std::max(config.filter.balance.preview_capacity, static_cast<int>(frames.size()) + 1);
-    DynamicsFilter filter(*model, config.filter, proxqp::factory());
-    if (config.filter.task.enabled && config.filter.task.body.empty() && !quiet)
-      std::fprintf(stderr, "task point on \"%s\" (task.body not configured: the model's trunk)\n",
-                   model->info().body_names[static_cast<std::size_t>(filter.taskBody())].c_str());
-    std::size_t previewed = 0;
+    io::OfflineRunOptions run_options;
+    run_options.tick_hz = tick_hz;
+    run_options.every_tick = every_tick;
+    run_options.preview_s = preview_s;  // NaN: offline the whole clip is known
     std::FILE* events = nullptr;
     if (!events_path.empty()) {
       events = std::fopen((events_path + ".tmp").c_str(), "w");
@@ -218,48 +200,38 @@ int main(int argc, char** argv) {
     tools::RunSummary summary(model->info());
     ProgressBar progress(!no_progress && !quiet && isatty(STDERR_FILENO));
     const auto wall0 = std::chrono::steady_clock::now();
-    filter.reset(frames.front());
-    ReferenceFrame ref(model->nq(), model->nv());
-    std::size_t segment = 0, next_frame = 0;
     int written = 0;
-    for (long k = 0; k < ticks; ++k) {
-      const double t = uniform ? frames[static_cast<std::size_t>(k / substeps)].time_s +
-                                     static_cast<double>(k % substeps) * dt
-                               : t0 + static_cast<double>(k) * dt;
-      while (segment + 2 < frames.size() && frames[segment + 1].time_s <= t) ++segment;
-      while (previewed < frames.size() &&
-             frames[previewed].time_s <= t + config.filter.balance.preview_s + 1e-9)
-        filter.previewFrame(frames[previewed++]);
-      interpolateReference(model->info().floating_base, frames[segment], frames[segment + 1], t,
-                           ref);
-      const FilterOutput& out = filter.step(ref);
-      summary.add(out);
-      if (events != nullptr && (out.status & (kStatusReseeded | kStatusQpRelaxed | kStatusQpFallback))) {
-        char violated[96];
-        const Eigen::VectorXd& e = out.tracking_error;
-        std::fprintf(events, "%.6f,%ld,%u,%s,%u,%s,%.6g,%.6g,%.6g\n", t, k, out.status,
-                     (out.status & kStatusReseeded) ? toString(out.reseed_reason) : "",
-                     out.qp_relaxation, describeQpFamilies(out.qp_violated, violated, sizeof violated),
-                     nb ? e.head<3>().norm() : 0.0, nb ? e.segment<3>(3).norm() : 0.0,
-                     model->nj() > 0 ? e.tail(model->nj()).cwiseAbs().maxCoeff() : 0.0);
-      }
-      bool write = every_tick || (uniform && k % substeps == 0);
-      if (!uniform)
-        while (next_frame < frames.size() && frames[next_frame].time_s < t + 0.5 * dt) {
-          write = true;
-          ++next_frame;
-        }
-      if (write) {
-        writer.append(out);
-        ++written;
-        if (bodies) {
-          // After the tick, so the filter's next setState is unaffected.
-          bodies.write(*model, "reference", ref.time_s, ref.q);
-          bodies.write(*model, "filtered", out.time_s, out.q);
-        }
-      }
-      progress.update(static_cast<double>(k + 1) / static_cast<double>(ticks));
-    }
+    io::runOffline(
+        *model, config.filter, motion, run_options, proxqp::factory(),
+        [&](const io::OfflineTick& tick) {
+          const FilterOutput& out = *tick.output;
+          if (tick.index == 0 && config.filter.task.enabled && config.filter.task.body.empty() &&
+              !quiet)
+            std::fprintf(stderr, "task point on \"%s\" (task.body not configured: the model's trunk)\n",
+                         model->info().body_names[static_cast<std::size_t>(tick.filter->taskBody())].c_str());
+          summary.add(out);
+          if (events != nullptr &&
+              (out.status & (kStatusReseeded | kStatusQpRelaxed | kStatusQpFallback))) {
+            char violated[96];
+            const Eigen::VectorXd& e = out.tracking_error;
+            std::fprintf(events, "%.6f,%ld,%u,%s,%u,%s,%.6g,%.6g,%.6g\n", tick.time_s, tick.index,
+                         out.status, (out.status & kStatusReseeded) ? toString(out.reseed_reason) : "",
+                         out.qp_relaxation,
+                         describeQpFamilies(out.qp_violated, violated, sizeof violated),
+                         nb ? e.head<3>().norm() : 0.0, nb ? e.segment<3>(3).norm() : 0.0,
+                         model->nj() > 0 ? e.tail(model->nj()).cwiseAbs().maxCoeff() : 0.0);
+          }
+          if (tick.row) {
+            writer.append(out);
+            ++written;
+            if (bodies) {
+              // After the tick, so the filter's next setState is unaffected.
+              bodies.write(*model, "reference", tick.reference->time_s, tick.reference->q);
+              bodies.write(*model, "filtered", out.time_s, out.q);
+            }
+          }
+          progress.update(static_cast<double>(tick.index + 1) / static_cast<double>(tick.count));
+        });
     progress.done();
     writer.commit();
     bodies.commit();
@@ -268,6 +240,7 @@ int main(int argc, char** argv) {
       if (!ok || std::rename((events_path + ".tmp").c_str(), events_path.c_str()) != 0)
         throw std::runtime_error("cannot write " + events_path);
     }
+    const double t0 = motion.frames.front().time_s, t_end = motion.frames.back().time_s;
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     if (!quiet) {
       std::fprintf(stderr, "wrote %s and %s\n", writer.path().c_str(), writer.contactsPath().c_str());

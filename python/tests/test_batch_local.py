@@ -1,0 +1,82 @@
+"""dynfilter.batch with two local worker processes on the shipped clips."""
+import sys
+
+import numpy as np
+import pytest
+
+import dynfilter
+from conftest import MODEL, ROOT, make_collection, read_csv, read_summary, run_batch
+
+
+def test_batch_two_workers_reports_failures_and_skips_what_is_done(tmp_path):
+    manifest, errors = make_collection(tmp_path / "in")
+    out = tmp_path / "out"
+    r = run_batch([manifest, "-o", out, "--workers", "2", "--max-seconds", "1.0",
+                   "--progress", "plain"])
+    assert r.returncode == 1, r.stderr  # some clips failed, the others were filtered
+    rows = read_summary(out)
+    assert list(rows) == ["walk", "kick", "squat", "broken", "lonely"]
+    for name in ("walk", "kick", "squat"):
+        assert rows[name]["status"] == "ok", rows[name]["error"]
+        assert int(rows[name]["frames"]) == 121  # 1 s at 120 Hz
+        assert (out / name / "filtered.csv").exists() and (out / name / "done.json").exists()
+    assert (out / "walk" / "reference.csv").exists()
+    for name, message in errors.items():
+        assert rows[name]["status"] == "failed"
+        assert rows[name]["error"].startswith(message), rows[name]["error"]
+        assert not (out / name / "done.json").exists()
+    md = (out / "summary.md").read_text()
+    assert "| broken | failed |" in md and errors["broken"] in md
+    assert "5 clips: 3 filtered, 0 skipped (already done), 2 failed." in md
+    assert "[5/5]" in r.stderr
+
+    # The summary counts what tools/paper_results.py counts from the same files.
+    sys.path.insert(0, str(ROOT / "tools"))
+    import paper_results
+    pm = paper_results.Model(str(MODEL))
+    for name in ("walk", "kick", "squat"):
+        m = paper_results.metrics_of(out / name / "filtered.csv",
+                                     out / name / "filtered.contacts.csv", pm)
+        for key in ("frames_pulling_contact", "frames_friction_violation",
+                    "frames_cop_outside", "frames_torque_over_limit", "frames_qp_fallback"):
+            assert int(rows[name][key]) == m[key], (name, key)
+        # Tracking RMS over the joints only (paper_results' joint_rms_rad has the base too).
+        t = paper_results.read_table(out / name / "filtered.csv")
+        joints = np.column_stack([t["err." + j] for j in pm.moving])
+        assert float(rows[name]["joint_rms_rad"]) == pytest.approx(
+            np.sqrt(np.mean(joints ** 2)), rel=1e-12)
+    # The paper mode's bilateral feet pull on the floor in the walk (README): not all zero.
+    assert int(rows["walk"]["frames_pulling_contact"]) > 0
+
+    # The batch's file is filter_motion's on the same input.
+    model = dynfilter.Model(str(MODEL))
+    direct = dynfilter.filter_motion(model, str(tmp_path / "in" / "squat.csv"), max_seconds=1.0)
+    header, data = read_csv(out / "squat" / "filtered.csv")
+    q0 = header.index("base_x")
+    assert np.array_equal(np.array([[float(x) for x in r[q0:q0 + model.nq]] for r in data]),
+                          direct["q"])
+
+    # Re-run: done clips are skipped, failed ones tried again; a changed input is redone.
+    r = run_batch([manifest, "-o", out, "--workers", "2", "--max-seconds", "1.0",
+                   "--progress", "none"])
+    rows = read_summary(out)
+    assert [rows[n]["status"] for n in rows] == ["skipped", "skipped", "skipped", "failed", "failed"]
+    squat = tmp_path / "in" / "squat.csv"
+    squat.write_text(squat.read_text().replace("\n0,", "\n0.0,", 1))
+    r = run_batch([manifest, "-o", out, "--workers", "2", "--max-seconds", "1.0",
+                   "--progress", "none"])
+    rows = read_summary(out)
+    assert rows["squat"]["status"] == "ok" and rows["walk"]["status"] == "skipped"
+
+
+def test_batch_of_a_folder_finds_mappings(tmp_path):
+    out = tmp_path / "out"
+    r = run_batch([ROOT / "data" / "mocap" / "cmu", "-o", out, "--workers", "2",
+                   "--max-seconds", "0.5", "--mode", "qp", "--progress", "none"])
+    assert r.returncode == 0, r.stdout + r.stderr
+    rows = read_summary(out)
+    assert sorted(rows) == ["01_01_forward_jumps", "10_01_soccer_kick", "131_01_start_walk_stop"]
+    for row in rows.values():
+        assert row["status"] == "ok"
+        # The QP mode: no pulling contact, friction or torque limit violated.
+        assert row["frames_pulling_contact"] == "0" and row["frames_torque_over_limit"] == "0"

@@ -1,0 +1,267 @@
+"""The bindings against the C++ tools on the same input, and their errors."""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dynfilter
+from conftest import CMU, MODEL, SQUAT, read_csv, run_tool, tool
+
+TIMING = {"solve_time_s", "tick_time_s"}
+
+
+def assert_same_table(tool_csv, python_csv_or_none, result, model):
+    """The tool's CSV against filter_motion's arrays (≤ 1e-12, in fact equal) and, when
+    given, against the CSV the binding wrote (identical text but for the timings)."""
+    header, rows = read_csv(tool_csv)
+    data = np.array([[float(x) for x in r] for r in rows])
+    col = {h: i for i, h in enumerate(header)}
+    assert data.shape[0] == len(result["time"]) > 100
+    nq, nv, nj = model.nq, model.nv, model.nj
+    i_q = col["base_x"]
+    i_v = col["base_vx"]
+    i_a = col["base_ax"]
+    i_tau = col[model.joint_names[0] + ".tau"]
+    i_err = col["err.base_x"]
+    pairs = [("time", data[:, col["time"]]), ("status", data[:, col["status"]]),
+             ("q", data[:, i_q:i_q + nq]), ("v", data[:, i_v:i_v + nv]),
+             ("vdot", data[:, i_a:i_a + nv]), ("tau", data[:, i_tau:i_tau + nj]),
+             ("tracking_error", data[:, i_err:i_err + nv]),
+             ("task_error", data[:, col["task_err.x"]:col["task_err.x"] + 6]),
+             ("eq12_residual", data[:, col["eq12_residual"]]),
+             ("base_residual_n", data[:, col["base_residual_n"]]),
+             ("max_penetration_m", data[:, col["max_penetration_m"]]),
+             ("num_contacts", data[:, col["num_contacts"]])]
+    for key, expected in pairs:
+        got = np.asarray(result[key], float)
+        assert got.shape == expected.shape, key
+        assert np.max(np.abs(got - expected)) <= 1e-12, key
+        assert np.array_equal(got, expected), key  # bit-identical: the same loop
+    ch, crows = read_csv(str(tool_csv)[:-4] + ".contacts.csv")
+    c = result["contacts"]
+    assert len(crows) == len(c["time"]) > 0
+    cc = {h: i for i, h in enumerate(ch)}
+    cdata = np.array([[float(r[i]) if h not in ("body", "kind") else 0.0 for i, h in enumerate(ch)]
+                      for r in crows])
+    wrench = cdata[:, [cc[k] for k in ("fx", "fy", "fz", "mx", "my", "mz")]]
+    assert np.array_equal(c["wrench_W"], wrench)
+    assert np.array_equal(c["normal_force_n"], cdata[:, cc["normal_force_n"]])
+    assert [result["body_names"][b] for b in c["body"]] == [r[cc["body"]] for r in crows]
+    if python_csv_or_none is not None:
+        h2, rows2 = read_csv(python_csv_or_none)
+        assert h2 == header
+        keep = [i for i, h in enumerate(header) if h not in TIMING]
+        assert [[r[i] for i in keep] for r in rows2] == [[r[i] for i in keep] for r in rows]
+        assert Path(str(python_csv_or_none)[:-4] + ".contacts.csv").read_text() == \
+            Path(str(tool_csv)[:-4] + ".contacts.csv").read_text()
+
+
+@pytest.mark.parametrize("mode", ["paper", "qp"])
+def test_filter_motion_equals_offline_tool_on_the_squat(tmp_path, model, mode):
+    offline = tool("offline")
+    out_tool = tmp_path / "tool.csv"
+    r = run_tool([offline, SQUAT, "-o", out_tool, "--mode", mode, "-q"])
+    assert r.returncode == 0, r.stderr
+    out_py = tmp_path / "py.csv"
+    result = dynfilter.filter_motion(model, str(SQUAT), mode=mode, output_csv=out_py)
+    assert_same_table(out_tool, out_py, result, model)
+    assert result["counters"]["ticks"] == result["ticks"] == 4 * (len(result["time"]) - 1) + 1
+
+
+def test_retarget_and_filter_equal_bvh2ref_then_offline(tmp_path, model):
+    bvh2ref, offline = tool("bvh2ref"), tool("offline")
+    bvh = CMU / "131_01_start_walk_stop.bvh"
+    mapping = CMU / "mappings" / "131_01.yaml"
+    ref_tool = tmp_path / "ref_tool.csv"
+    r = run_tool([bvh2ref, bvh, "--mapping", mapping, "-o", ref_tool])
+    assert r.returncode == 0, r.stderr
+    result = dynfilter.retarget(str(bvh), str(mapping), model)
+    ref_py = tmp_path / "ref_py.csv"
+    result.write_csv(str(ref_py), model)
+    assert ref_py.read_text() == ref_tool.read_text()
+    assert (tmp_path / "ref_py.stance.csv").read_text() == (tmp_path / "ref_tool.stance.csv").read_text()
+    assert result.cleaned and result.limit_report and len(result.limits) == model.nj
+    assert result.cleanup_report in r.stdout
+    # Without the clean-up, the retargeted motion itself.
+    raw = dynfilter.retarget(str(bvh), str(mapping), model, cleanup=False)
+    assert not raw.cleaned and np.array_equal(raw.reference.q, result.raw_reference.q)
+    out_tool = tmp_path / "tool.csv"
+    r = run_tool([offline, ref_tool, "-o", out_tool, "--mode", "qp", "-q"])
+    assert r.returncode == 0, r.stderr
+    out = dynfilter.filter_motion(model, str(ref_py), {"mode": "qp"})
+    assert_same_table(out_tool, None, out, model)
+
+
+def test_arrays_give_the_same_result_as_the_csv(model):
+    ref = dynfilter.read_reference(str(SQUAT), model)
+    a = dynfilter.filter_motion(model, ref, mode="paper", max_seconds=1.0)
+    b = dynfilter.filter_motion(model, {"time": ref.time, "q": ref.q, "v": ref.v, "vdot": ref.vdot},
+                                mode="paper", max_seconds=1.0)
+    for key in ("q", "v", "vdot", "tau"):
+        assert np.array_equal(a[key], b[key]), key
+    # Without v and vdot the derivatives are estimated exactly as for the CSV (no velocity
+    # columns in the squat file).
+    c = dynfilter.filter_motion(model, {"time": ref.time, "q": ref.q}, mode="paper", max_seconds=1.0)
+    assert np.array_equal(a["q"], c["q"])
+
+
+def test_step_by_step_matches_filter_motion_at_the_frame_rate(model):
+    ref = dynfilter.read_reference(str(SQUAT), model)
+    rate = 1.0 / (ref.time[1] - ref.time[0])
+    whole = dynfilter.filter_motion(model, ref, mode="paper", tick_hz=rate, max_seconds=0.5)
+    cfg = dynfilter.config({"mode": "paper", "dt_s": 1.0 / rate})
+    f = dynfilter.Filter(model, cfg)
+    f.reset(ref.q[0], ref.v[0], ref.vdot[0], time=ref.time[0])
+    n = len(whole["time"])
+    for k in range(n):
+        out = f.step(ref.time[k], ref.q[k], ref.v[k], ref.vdot[k])
+        # interpolation at a frame's own time may differ from the frame in the last bits
+        assert np.max(np.abs(out["q"] - whole["q"][k])) < 1e-9
+        assert np.max(np.abs(out["tau"] - whole["tau"][k])) < 1e-6
+        assert out["eq12_residual"] < 1e-6
+    assert len(out["contacts"]) == whole["num_contacts"][n - 1]
+
+
+def test_model_dynamics_agree_between_backends(model):
+    ode = dynfilter.Model(str(MODEL), "ode")
+    rng = np.random.default_rng(3)
+    q = model.neutral_configuration()
+    q[7:] += rng.uniform(-0.3, 0.3, model.nj)
+    v = rng.uniform(-1, 1, model.nv)
+    A, B = model.mass_matrix(q), ode.mass_matrix(q)
+    assert np.allclose(A, A.T) and np.max(np.abs(A - B)) < 1e-9 * np.max(np.abs(A))
+    assert np.max(np.abs(model.bias(q, v) - ode.bias(q, v))) < 1e-8
+    tau = rng.uniform(-5, 5, model.nj)
+    vdot = model.forward_dynamics(q, v, tau)
+    # A v̇ + b = [0; τ]
+    r = A @ vdot + model.bias(q, v)
+    assert np.max(np.abs(r[:6])) < 1e-8 and np.max(np.abs(r[6:] - tau)) < 1e-8
+
+
+def test_crosscheck_filtered_equals_the_crosscheck_tool(tmp_path, model):
+    crosscheck = tool("crosscheck")
+    csv_path = tmp_path / "squat.csv"
+    out = dynfilter.filter_motion(model, str(SQUAT), mode="paper", output_csv=csv_path)
+    ode = dynfilter.Model(str(MODEL), "ode")
+    from_file = dynfilter.crosscheck_filtered(ode, csv_path)
+    from_arrays = dynfilter.crosscheck_filtered(ode, out)
+    assert np.array_equal(from_file["residual"], from_arrays["residual"])
+    assert from_file["max_residual_rel_bw"] < 1e-8
+    r = run_tool([crosscheck, "--filtered", csv_path, "--filtered-backend", "dart"])
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert f"max {from_file['max_base_residual_n']:.3g} N" in r.stdout
+    assert f"all rows:             max {from_file['max_residual']:.3g}" in r.stdout
+    # A wrong torque is seen.
+    out["tau"][10, 3] += 1.0
+    assert dynfilter.crosscheck_filtered(ode, out)["residual"][10] > 0.9
+
+
+# ----------------------------------------------------------------------------- errors
+def tool_error(args):
+    r = run_tool(args)
+    assert r.returncode == 2, r.stderr
+    line = r.stderr.strip().splitlines()[-1]
+    assert line.startswith("error: ")
+    return line[len("error: "):]
+
+
+def test_bad_reference_csv_raises_the_tools_message(tmp_path, model):
+    offline = tool("offline")
+    lines = SQUAT.read_text().splitlines()
+    header_at = next(i for i, l in enumerate(lines) if l.startswith("time,"))
+    fields = lines[header_at + 3].split(",")
+    fields[5] = "abc"
+    lines[header_at + 3] = ",".join(fields)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    expected = tool_error([offline, bad, "-o", tmp_path / "o.csv", "-q"])
+    with pytest.raises(dynfilter.InputError) as e:
+        dynfilter.filter_motion(model, str(bad))
+    assert str(e.value) == expected
+    assert e.value.line == header_at + 4 and e.value.column == 6
+    assert "base_qx" in str(e.value) and isinstance(e.value, ValueError)
+
+
+def test_bad_config_raises_the_tools_message(tmp_path, model):
+    offline = tool("offline")
+    cfg = tmp_path / "bad.yaml"
+    cfg.write_text("feedback:\n  joint_kpp: 3\n")
+    expected = tool_error([offline, SQUAT, "-o", tmp_path / "o.csv", "-c", cfg, "-q"])
+    with pytest.raises(dynfilter.InputError) as e:
+        dynfilter.filter_motion(model, str(SQUAT), str(cfg))
+    assert str(e.value) == expected
+    # A dict goes through the same parser: the same message, labelled <dict>.
+    with pytest.raises(dynfilter.InputError) as e:
+        dynfilter.config({"feedback": {"joint_kpp": 3}})
+    assert str(e.value) == expected.replace(str(cfg), "<dict>")
+    with pytest.raises(dynfilter.InputError, match=r"<dict>:1:\d+: dt_s: "):
+        dynfilter.config({"dt_s": -1.0})
+
+
+def test_bad_urdf_and_backend(tmp_path):
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text('<robot name="arm">\n<link name="a"/>\n<link name="b"/>\n'
+                    '<joint name="j" type="ball">\n<parent link="a"/><child link="b"/>\n'
+                    '</joint>\n</robot>\n')
+    with pytest.raises(dynfilter.ModelError) as e:
+        dynfilter.Model(str(urdf))
+    assert str(e.value).startswith(f"{urdf}:4: joint \"j\": unknown joint type \"ball\"")
+    assert e.value.line == 4
+    with pytest.raises(ValueError, match="unknown backend \"bullet\""):
+        dynfilter.Model(str(MODEL), "bullet")
+
+
+def test_bad_arrays_name_the_row(model):
+    ref = dynfilter.read_reference(str(SQUAT), model)
+    with pytest.raises(dynfilter.InputError, match=r"^<arrays>: q has shape \(481, 38\), expected \(481, 39\)"):
+        dynfilter.filter_motion(model, {"time": ref.time, "q": ref.q[:, 1:]})
+    t = ref.time.copy()
+    t[5] = t[4]
+    with pytest.raises(dynfilter.InputError, match=r"^<arrays>: row 5: time .* is not after"):
+        dynfilter.filter_motion(model, {"time": t, "q": ref.q})
+    q = ref.q.copy()
+    q[7, 3] = 2.0
+    with pytest.raises(dynfilter.InputError, match=r"^<arrays>: row 7: base quaternion norm"):
+        dynfilter.filter_motion(model, {"time": ref.time, "q": q})
+    q = ref.q.copy()
+    q[2, 10] = np.nan
+    with pytest.raises(dynfilter.InputError, match=r"^<arrays>: row 2: a value is not finite"):
+        dynfilter.filter_motion(model, {"time": ref.time, "q": q})
+
+
+def test_bad_bvh_and_mapping(tmp_path, model):
+    bvh = tmp_path / "x.bvh"
+    bvh.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Wrotation\n}\n"
+                   "MOTION\nFrames: 1\nFrame Time: 0.01\n0 0 0\n")
+    with pytest.raises(dynfilter.InputError, match=rf"^{bvh}:5:.*Wrotation"):
+        dynfilter.read_bvh(str(bvh))
+    mapping = tmp_path / "m.yaml"
+    mapping.write_text("root: {bvh: Hips, link: pelvis}\nsegments:\n  - {link: no_such_link, bvh: Hips}\n")
+    with pytest.raises(dynfilter.InputError, match=rf"^{mapping}:3"):
+        dynfilter.retarget(str(CMU / "131_01_start_walk_stop.bvh"), str(mapping), model)
+
+
+def test_invalid_state(model):
+    f = dynfilter.Filter(model, dynfilter.config())
+    q = model.neutral_configuration()
+    q[3] = 0.5
+    with pytest.raises(dynfilter.InvalidStateError, match="quaternion"):
+        f.reset(q)
+
+
+def test_lcm_message_types_beside_the_bindings(tmp_path):
+    import os
+    types = os.environ.get("DYNFILTER_LCMTYPES_PYTHON")
+    if not types:
+        pytest.skip("DYNFILTER_LCMTYPES_PYTHON not set (run through ctest)")
+    pytest.importorskip("lcm")
+    import subprocess
+    code = ("import dynfilter, dynfilter.lcmtypes as t; m = t.contact_state_t(); c = t.contact_t(); "
+            "c.body_name = 'l_foot'; m.contacts = [c]; m.num_contacts = 1; "
+            "d = t.contact_state_t.decode(m.encode()); print(d.contacts[0].body_name, dynfilter.Model)")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([env["PYTHONPATH"], types])
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith("l_foot <class 'dynfilter._dynfilter.Model'>")
