@@ -188,6 +188,8 @@ int main(int argc, char** argv) {
                "start each tick from the robot's measured state; the robot's state messages "
                "then trigger the ticks (the rate becomes the robot's), falling back to "
                "--rate-hz when they stop");
+  app.add_flag("--balance-preview", rt_options.balance_preview,
+               "feed the reference delay's frames to the balance layer as look-ahead (experimental)");
   app.add_option("--stale-timeout-s", rt_options.stale_timeout_s, "hold posture after this silence");
   app.add_option("--reference-delay-s", rt_options.reference_delay_s,
                  "play the reference this far behind its newest frame");

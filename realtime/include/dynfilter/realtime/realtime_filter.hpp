@@ -20,6 +20,10 @@ namespace dynfilter::realtime {
 struct RealtimeOptions {
   /// No reference frame for this long (s) → hold the current posture (damped by the
   /// filter's feedback) and report kStatusStaleReference.
+  /// Feed accepted frames to the balance layer's look-ahead (DynamicsFilter::
+  /// previewFrame). Off by default: in the closed loop on a loaded machine it made the
+  /// robot fall (README "Real-time stack"); the balance layer then works without preview.
+  bool balance_preview = false;
   double stale_timeout_s = 0.25;
   /// The reference is played this far (s) behind the newest received frame's time.
   double reference_delay_s = 0.05;
