@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <stdexcept>
 #include <string>
 
@@ -417,6 +418,25 @@ std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
       status |= kStatusRankDeficient;
   }
   return status;
+}
+
+bool stepOnMeasuredState(DynamicsFilter& filter, const ModelInfo& info, bool& started,
+                         const Eigen::Ref<const Eigen::VectorXd>& q_measured,
+                         const Eigen::Ref<const Eigen::VectorXd>& v_measured,
+                         const ReferenceFrame& reference, Eigen::Ref<Eigen::VectorXd> tau_J) {
+  tau_J.setZero();
+  if (!started) {
+    try {
+      filter.reset(reference);  // contacts and feedback start on the reference ...
+      started = true;
+    } catch (const std::exception&) {
+      return false;  // an invalid first reference: nothing to start on
+    }
+  }
+  if (!filter.setMeasuredState(q_measured, v_measured)) return false;  // ... the state is the world's
+  const FilterOutput& out = filter.step(reference);
+  if (out.tau_J.allFinite()) tau_J = out.tau_J.cwiseMax(-info.tau_max).cwiseMin(info.tau_max);
+  return true;
 }
 
 }  // namespace dynfilter

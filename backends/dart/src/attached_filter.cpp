@@ -53,23 +53,12 @@ void AttachedFilter::restoreSkeletonState() {
 
 const FilterOutput& AttachedFilter::step(const ReferenceFrame& reference) {
   saveSkeletonState();
-  const ModelInfo& info = model_->info();
   bool measured = model_->readSkeletonState(q_measured_, v_measured_);
-  if (measured && !started_) {
-    try {
-      filter_->reset(reference);  // contacts and feedback start on the reference ...
-      started_ = true;
-    } catch (const std::exception&) {
-      measured = false;  // an invalid first reference: nothing to start on
-    }
-  }
-  if (measured) measured = filter_->setMeasuredState(q_measured_, v_measured_);  // ... the state is the world's
-  tau_applied_.setZero();
-  if (measured) {
-    const FilterOutput& out = filter_->step(reference);
-    if (out.tau_J.allFinite())
-      tau_applied_ = out.tau_J.cwiseMax(-info.tau_max).cwiseMin(info.tau_max);
-  }
+  if (measured)
+    measured = stepOnMeasuredState(*filter_, model_->info(), started_, q_measured_, v_measured_,
+                                   reference, tau_applied_);
+  else
+    tau_applied_.setZero();
   // A ball joint's torque mapping depends on θ: the model back at the measured state.
   if (measured) model_->setState(q_measured_, v_measured_);
   restoreSkeletonState();

@@ -1,7 +1,6 @@
 #include "dynfilter/ode/attached_filter.hpp"
 
 #include <algorithm>
-#include <exception>
 #include <stdexcept>
 #include <utility>
 
@@ -31,22 +30,11 @@ const FilterOutput& AttachedFilter::step(const ReferenceFrame& reference) {
     std::copy_n(dBodyGetAngularVel(bodies[k]), 3, s.w.begin());
   }
   bool measured = model_->readBodyState(q_measured_, v_measured_);
-  if (measured && !started_) {
-    try {
-      filter_->reset(reference);  // contacts and feedback start on the reference ...
-      started_ = true;
-    } catch (const std::exception&) {
-      measured = false;  // an invalid first reference: nothing to start on
-    }
-  }
-  if (measured) measured = filter_->setMeasuredState(q_measured_, v_measured_);  // ... the state is the world's
-  tau_applied_.setZero();
-  if (measured) {
-    const FilterOutput& out = filter_->step(reference);
-    const ModelInfo& info = model_->info();
-    if (out.tau_J.allFinite())
-      tau_applied_ = out.tau_J.cwiseMax(-info.tau_max).cwiseMin(info.tau_max);
-  }
+  if (measured)
+    measured = stepOnMeasuredState(*filter_, model_->info(), started_, q_measured_, v_measured_,
+                                   reference, tau_applied_);
+  else
+    tau_applied_.setZero();
   // A ball joint's torque mapping depends on θ: the model back at the measured state.
   if (measured) model_->setState(q_measured_, v_measured_);
   for (std::size_t k = 0; k < bodies.size(); ++k) {

@@ -121,4 +121,16 @@ class DynamicsFilter {
   Eigen::VectorXd task_weight_inv_;  // nv
 };
 
+/// One tick of a filter attached to a running simulation (the backends' AttachedFilter):
+/// on the first call with a valid measured state the filter starts on @p reference
+/// (contacts and feedback), and @p started is set; every tick then runs from the measured
+/// state (q_measured: nq, v_measured: nv). Writes the filter's τ_J clamped to the model's
+/// torque limits into @p tau_J (nj), zero when the filter did not run (an invalid first
+/// reference or state) or its torques are not finite. Returns whether the filter ran; the
+/// model is then at the filter's integrated state. No allocation.
+bool stepOnMeasuredState(DynamicsFilter& filter, const ModelInfo& info, bool& started,
+                         const Eigen::Ref<const Eigen::VectorXd>& q_measured,
+                         const Eigen::Ref<const Eigen::VectorXd>& v_measured,
+                         const ReferenceFrame& reference, Eigen::Ref<Eigen::VectorXd> tau_J);
+
 }  // namespace dynfilter
