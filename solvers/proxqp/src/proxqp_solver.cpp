@@ -5,6 +5,8 @@
 
 #include <proxsuite/proxqp/dense/dense.hpp>
 
+#include "active_set_step.hpp"
+
 namespace dynfilter::proxqp {
 namespace {
 
@@ -12,6 +14,8 @@ namespace pq = proxsuite::proxqp;
 
 // Newton steps of ProxQP's inner loop per outer iteration (its max_iter_in).
 constexpr int kNewtonStepsPerIteration = 5;
+// Guesses of the active-set step before ProxQP runs (each one linear solve).
+constexpr int kActiveSetSteps = 2;
 
 class ProxQpSolver final : public IQpSolver {
  public:
@@ -24,7 +28,10 @@ class ProxQpSolver final : public IQpSolver {
         x_upper_(n),
         H_(n, n),
         A_(n_eq, n),
-        C_(n_in, n) {
+        C_(n_in, n),
+        active_set_(n, n_eq, n_in),
+        y_(n_eq),
+        z_(n_in + n) {
     // ProxQP 0.7.2 leaves these workspace flags uninitialised and its duality-gap check
     // reads them before the first solve sets them (UBSan: "load of value 190 ... bool").
     qp_.work.active_set_up.setConstant(false);
@@ -46,6 +53,20 @@ class ProxQpSolver final : public IQpSolver {
 
   QpSolveInfo solve(const DenseQp& p, Eigen::Ref<Eigen::VectorXd> x) override {
     QpSolveInfo info;
+    // Warm: first the previous solution's active set (exact KKT check, no ProxQP run when
+    // it holds); its answer is ProxQP's next warm start.
+    if (initialized_ && qp_.settings.initial_guess == pq::InitialGuessStatus::WARM_START_WITH_PREVIOUS_RESULT) {
+      const int steps = active_set_.solve(p, settings_.eps_abs, kActiveSetSteps, x, y_, z_);
+      if (steps > 0) {
+        qp_.results.x = x;
+        qp_.results.y = y_;
+        qp_.results.z = z_;
+        info.status = QpSolveStatus::kSolved;
+        info.iterations = steps;
+        info.primal_residual = active_set_.residual();
+        return info;
+      }
+    }
     // ProxQP recognises an unbounded side by its own infinite_bound value (its duality gap
     // and infeasibility tests skip those sides); kQpInfinity is mapped onto it.
     mapInfinity(p.l, l_);
@@ -104,6 +125,8 @@ class ProxQpSolver final : public IQpSolver {
     if (!x.allFinite()) info.status = QpSolveStatus::kNotFinite;
     // Warm-start the next tick from a solution, or from where the cap stopped.
     const bool usable = info.status == QpSolveStatus::kSolved || info.status == QpSolveStatus::kMaxIterations;
+    if (usable) active_set_.guessFromMultipliers(p, qp_.results.z);
+    else active_set_.clear();
     qp_.settings.initial_guess = settings_.warm_start && usable
                                      ? pq::InitialGuessStatus::WARM_START_WITH_PREVIOUS_RESULT
                                      : pq::InitialGuessStatus::EQUALITY_CONSTRAINED_INITIAL_GUESS;
@@ -113,6 +136,7 @@ class ProxQpSolver final : public IQpSolver {
   const char* name() const override { return "proxqp"; }
 
   void resetWarmStart() override {
+    active_set_.clear();
     qp_.settings.initial_guess = pq::InitialGuessStatus::EQUALITY_CONSTRAINED_INITIAL_GUESS;
   }
 
@@ -141,6 +165,8 @@ class ProxQpSolver final : public IQpSolver {
   Eigen::VectorXd l_, u_, x_lower_, x_upper_;
   using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   RowMajorMatrix H_, A_, C_;
+  ActiveSetStep active_set_;
+  Eigen::VectorXd y_, z_;  // multipliers of the active-set step
 };
 
 }  // namespace
