@@ -78,6 +78,33 @@ TEST(ProxQpAdapter, WarmStartedResolveTakesNoMoreIterations) {
   EXPECT_NEAR(x[2], -0.25, 1e-8);
 }
 
+TEST(ProxQpAdapter, AWarmSolveOnTheSameActiveSetIsOneExactLinearSolve) {
+  // The box moved to x0 ≤ 0.9, the same bounds active: x = (0.9, 0.35, −0.25) with
+  // λ = x1 − c1 = −0.65, μ = 2 − 0.9 − 0.65 = 0.45 ≥ 0, ν = −0.25 + 0.65 = 0.4 ≥ 0.
+  // The active-set step solves it in one linear solve, to round-off (ProxQP would stop at
+  // its tolerance after at least two Newton steps).
+  auto solver = proxqp::makeSolver(3, 1, 2, tightSettings());
+  DenseQp qp = projectionProblem();
+  Eigen::VectorXd x(3);
+  ASSERT_EQ(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  qp.x_upper[0] = 0.9;
+  const QpSolveInfo info = solver->solve(qp, x);
+  EXPECT_EQ(info.status, QpSolveStatus::kSolved);
+  EXPECT_EQ(info.iterations, 1);
+  EXPECT_NEAR(x[0], 0.9, 1e-13);
+  EXPECT_NEAR(x[1], 0.35, 1e-13);
+  EXPECT_NEAR(x[2], -0.25, 1e-13);
+  // A guess that is wrong in both bounds: for c = (2, 1, 1.5) the projection onto the
+  // plane, c − (7/6)(1, 1, 1) = (5/6, −1/6, 1/3), is inside both. Corrected by the step or
+  // left to ProxQP, the answer is that KKT point.
+  qp.g = -Eigen::Vector3d(2.0, 1.0, 1.5);
+  const QpSolveInfo moved = solver->solve(qp, x);
+  EXPECT_EQ(moved.status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], 5.0 / 6.0, 1e-8);
+  EXPECT_NEAR(x[1], -1.0 / 6.0, 1e-8);
+  EXPECT_NEAR(x[2], 1.0 / 3.0, 1e-8);
+}
+
 TEST(ProxQpAdapter, ChangedDataOnTheSameInstanceIsSolvedAnew) {
   // A warm start from the previous answer must not leak it into a different problem:
   // moving c to (−2, 1, 0) makes the box inactive. Σx = 1 with x2 ≥ −0.25:
