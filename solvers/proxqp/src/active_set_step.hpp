@@ -50,7 +50,7 @@ class ActiveSetStep {
   std::vector<int> free_, rows_;   // free variables; active rows of C
   Eigen::MatrixXd H_ff_;           // n × n: H on the free variables, then its Cholesky factor
   Eigen::MatrixXd W_;              // n × (n_eq + n_in): L⁻¹ G_Fᵀ
-  Eigen::MatrixXd S_;              // (n_eq + n_in)²: W W ᵀ... = G H⁻¹ Gᵀ
+  Eigen::MatrixXd S_;              // (n_eq + n_in)²: WᵀW = G_F H_FF⁻¹ G_Fᵀ
   Eigen::VectorXd v_, h_, lambda_, stationarity_;
 };
 
