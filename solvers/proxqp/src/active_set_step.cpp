@@ -110,6 +110,15 @@ bool ActiveSetStep::solveOnSides(const DenseQp& p, Eigen::Ref<Eigen::VectorXd> x
 int ActiveSetStep::solve(const DenseQp& p, double eps, int max_steps, Eigen::Ref<Eigen::VectorXd> x,
                          Eigen::Ref<Eigen::VectorXd> y, Eigen::Ref<Eigen::VectorXd> z) {
   if (!has_guess_) return 0;
+  // Bounds that are gone (a relaxation dropped them) leave the guess.
+  for (int r = 0; r < n_in_; ++r) {
+    signed char& s = side_[static_cast<std::size_t>(r)];
+    if ((s > 0 && !finite(p.u[r])) || (s < 0 && !finite(p.l[r]))) s = 0;
+  }
+  for (int i = 0; i < n_; ++i) {
+    signed char& s = side_[static_cast<std::size_t>(n_in_ + i)];
+    if ((s > 0 && !finite(p.x_upper[i])) || (s < 0 && !finite(p.x_lower[i]))) s = 0;
+  }
   for (int step = 1; step <= max_steps; ++step) {
     if (!solveOnSides(p, x, y, z)) break;
     // The equality and active rows hold, and stationarity on the free variables, to eps:

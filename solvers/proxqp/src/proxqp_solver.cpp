@@ -15,7 +15,7 @@ namespace pq = proxsuite::proxqp;
 // Newton steps of ProxQP's inner loop per outer iteration (its max_iter_in).
 constexpr int kNewtonStepsPerIteration = 5;
 // Guesses of the active-set step before ProxQP runs (each one linear solve).
-constexpr int kActiveSetSteps = 2;
+constexpr int kActiveSetSteps = 4;
 
 class ProxQpSolver final : public IQpSolver {
  public:
