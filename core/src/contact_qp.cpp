@@ -362,17 +362,17 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
 }
 
 // ---- objective tasks of the balance layer (beyond the paper's QP) ----------------------
-void ContactQp::addObjectiveTasks(DenseQp& qp, int nc) const {
+void ContactQp::addObjectiveTasks(DenseQp& qp, int nc) {
   if (tasks_ == nullptr || tasks_->rows <= 0) return;
   const int m = tasks_->rows, n = nv_ + nc;
   const auto T = tasks_->T.topLeftCorner(m, n);
   const auto w = tasks_->w.head(m);
   const auto r = tasks_->r.head(m);
-  for (int i = 0; i < m; ++i) {
-    if (w[i] <= 0.0) continue;
-    qp.H.topLeftCorner(n, n).noalias() += w[i] * T.row(i).transpose() * T.row(i);
-    qp.g.head(n).noalias() -= (w[i] * r[i]) * T.row(i).transpose();
-  }
+  // H += Tᵀ diag(w) T and g −= Tᵀ diag(w) r in one product (rows with w ≤ 0 weigh 0).
+  auto WT = weighted_tasks_.topLeftCorner(m, n);
+  WT = w.cwiseMax(0.0).asDiagonal() * T;
+  qp.H.topLeftCorner(n, n).noalias() += T.transpose() * WT;
+  qp.g.head(n).noalias() -= WT.transpose() * r;
 }
 
 std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,

@@ -114,7 +114,10 @@ class ContactQp {
 
   /// The next solves add these rows to the objective (nullptr: none). Not owned; must
   /// outlive the solves that use it.
-  void setObjectiveTasks(const QpObjectiveTasks* tasks) { tasks_ = tasks; }
+  void setObjectiveTasks(const QpObjectiveTasks* tasks) {
+    tasks_ = tasks;
+    if (tasks != nullptr) weighted_tasks_.resize(tasks->T.rows(), tasks->T.cols());
+  }
 
   /// Checks a candidate (v̇, τ_C, τ_J) against Eq. 12 and the bounds built by the last
   /// solve() (the QP's own answer, or a fallback's). Returns the violated families' bits.
@@ -137,7 +140,7 @@ class ContactQp {
                         const Eigen::Ref<const Eigen::VectorXd>& v);
 
   // Adds the objective tasks' rows to H and g (balance layer; not part of the paper's QP).
-  void addObjectiveTasks(DenseQp& qp, int nc) const;
+  void addObjectiveTasks(DenseQp& qp, int nc);
 
   QpModeOptions options_;
   const QpObjectiveTasks* tasks_ = nullptr;
@@ -149,6 +152,7 @@ class ContactQp {
   Eigen::VectorXd facet_cos_, facet_sin_;               // friction pyramid directions
   Eigen::MatrixXd M_;                    // nj × (nv + capacity)
   mutable Eigen::VectorXd residual_;     // nv scratch of check()
+  Eigen::MatrixXd weighted_tasks_;       // diag(w) T of the objective tasks (their T's size)
   // Per-link bounds of the last solve, for check().
   struct LinkBounds {
     int row = 0;        // first τ_C row of the link
