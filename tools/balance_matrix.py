@@ -1,0 +1,177 @@
+#!/usr/bin/env python3
+"""Issue 13's check matrix: the CMU clips and their variants in one mode and configuration.
+
+    build/venv/bin/python tools/balance_matrix.py [--out build/balance_matrix] [--mode qp]
+        [--config c.yaml] [--only walk,jump] [--jobs 2] [--markdown table.md]
+
+Cases: walk, jump, kick (level ground, DART), the walk with the ODE backend, played 0.8× and
+1.25× as fast (the reference's time column scaled), on a 10° downhill and a 5° uphill slope
+along its heading, and mirrored left↔right (the BVH mirrored before retargeting). References
+come from dynfilter-bvh2ref with its default clean-up. Per case: re-seeding ticks (every
+tick, --events-csv), joint RMS overall and per group, base position RMS against the
+reference as received, the largest per-frame base jump, stance skate, penetration, frames
+with a pulling contact / a force outside its cone / a CoP outside its support / a torque at
+its limit, and Eq. 12's base rows relative to the body weight.
+"""
+import argparse
+import concurrent.futures as cf
+import csv
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import paper_results as pr  # noqa: E402
+
+WALK = ("131_01_start_walk_stop.bvh", "131_01.yaml")
+CASES = {
+    # name: (bvh, mapping, time scale, slope (deg, + down), backend, mirrored)
+    "walk": (*WALK, 1.0, 0.0, "dart", False),
+    "jump": ("01_01_forward_jumps.bvh", "01_01.yaml", 1.0, 0.0, "dart", False),
+    "kick": ("10_01_soccer_kick.bvh", "10_01.yaml", 1.0, 0.0, "dart", False),
+    "walk_ode": (*WALK, 1.0, 0.0, "ode", False),
+    "walk_0.8x": (*WALK, 0.8, 0.0, "dart", False),
+    "walk_1.25x": (*WALK, 1.25, 0.0, "dart", False),
+    "walk_10_down": (*WALK, 1.0, 10.0, "dart", False),
+    "walk_5_up": (*WALK, 1.0, -5.0, "dart", False),
+    "walk_mirrored": (*WALK, 1.0, 0.0, "dart", True),
+}
+
+
+def mirror_bvh(src, dst):
+    """Mirror a BVH about its sagittal plane (x = 0; the CMU skeletons: x lateral, y up):
+    Left/Right swapped in the bone names, x offsets and positions negated, and the rotations
+    about y and z."""
+    text = Path(src).read_text().splitlines()
+    i_motion = next(i for i, l in enumerate(text) if l.strip() == "MOTION")
+    channels, names, out = [], [], []
+    for line in text[:i_motion]:
+        s = line.strip()
+        if s.startswith(("ROOT", "JOINT")):
+            kw, name = s.split()[0], s.split()[1]
+            names.append(name)
+            swapped = name.replace("Left", "\0").replace("Right", "Left").replace("\0", "Right")
+            line = line.replace(f"{kw} {name}", f"{kw} {swapped}")
+        elif s.startswith("OFFSET"):
+            v = [float(x) for x in s.split()[1:]]
+            v[0] = -v[0]
+            line = line[:line.index("OFFSET")] + "OFFSET " + " ".join(f"{x:.6f}" for x in v)
+        elif s.startswith("CHANNELS"):
+            channels.append((names[-1], s.split()[2:]))
+        out.append(line)
+    # The bone at each place now carries the other side's name and its offsets mirrored, so
+    # its own channels, mirrored, are the mirrored subject's motion.
+    cols = [c for _, ch in channels for c in ch]
+    out += text[i_motion:i_motion + 3]
+    for line in text[i_motion + 3:]:
+        if not line.strip():
+            continue
+        v = [float(x) for x in line.split()]
+        w = [-x if c in ("Xposition", "Yrotation", "Zrotation") else x for x, c in zip(v, cols)]
+        out.append(" ".join(f"{x:.6f}" for x in w))
+    Path(dst).write_text("\n".join(out) + "\n")
+
+
+def scale_time(src, dst, speed):
+    lines = Path(src).read_text().splitlines()
+    out = []
+    for line in lines:
+        if line.startswith("#") or line.startswith("time"):
+            out.append(line)
+            continue
+        f = line.split(",")
+        f[0] = repr(float(f[0]) / speed)
+        out.append(",".join(f))
+    Path(dst).write_text("\n".join(out) + "\n")
+
+
+def run_case(name, args, build, out):
+    bvh, mapping, speed, slope, backend, mirrored = CASES[name]
+    bvh_path = pr.CMU / bvh
+    if mirrored:
+        bvh_path = out / f"{name}.bvh"
+        mirror_bvh(pr.CMU / bvh, bvh_path)
+    ref = out / f"{name}_reference.csv"
+    subprocess.run([str(build / "tools/bvh2ref/dynfilter-bvh2ref"), str(bvh_path), "--mapping",
+                    str(pr.CMU / "mappings" / mapping), "-o", str(ref)], check=True, capture_output=True)
+    if speed != 1.0:
+        scale_time(ref, ref, speed)
+    fil = out / f"{name}_{args.mode}.csv"
+    events = out / f"{name}_{args.mode}.events.csv"
+    bodies = out / f"{name}_{args.mode}.bodies.csv"
+    cmd = [str(build / "tools/offline/dynfilter-offline"), str(ref), "-o", str(fil), "--no-progress", "-q",
+           "--mode", args.mode, "--backend", backend, "--events-csv", str(events), "--bodies-csv", str(bodies)]
+    if slope:
+        heading, _ = pr.heading_of(ref)
+        cmd += ["--slope-deg", f"{slope:g}", "--slope-heading-deg", f"{heading:.1f}"]
+    if args.config:
+        cmd += ["--config", args.config]
+    subprocess.run(cmd, check=True, capture_output=True)
+    model = pr.Model(pr.URDF)
+    m = pr.metrics_of(fil, out / f"{name}_{args.mode}.contacts.csv", model)
+    m.update(pr.motion_metrics(fil, ref, bodies, out / f"{name}_{args.mode}.contacts.csv", events, model))
+    return name, m
+
+
+COLUMNS = [
+    ("reseed_ticks", "re-seeds", "{:d}"),
+    ("joint_rms_rad", "joints (rad)", "{:.3f}"),
+    ("joint_rms_legs_rad", "legs", "{:.3f}"),
+    ("joint_rms_arms_rad", "arms", "{:.3f}"),
+    ("joint_rms_spine_rad", "spine", "{:.3f}"),
+    ("base_rms_m", "base (m)", "{:.3f}"),
+    ("max_base_jump_mm", "base jump (mm)", "{:.0f}"),
+    ("max_stance_skate_mm", "skate (mm)", "{:.0f}"),
+    ("max_penetration_mm", "penetration (mm)", "{:.1f}"),
+    ("frames_pulling_contact", "pulling", "{:d}"),
+    ("frames_friction_violation", "cone", "{}"),
+    ("frames_cop_outside", "CoP", "{}"),
+    ("frames_torque_over_limit", "torque", "{}"),
+    ("max_base_residual_rel_bw", "Eq. 12 base / weight", "{:.1e}"),
+]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", default=str(pr.ROOT / "build" / "balance_matrix"))
+    ap.add_argument("--build-dir", default=str(pr.ROOT / "build"))
+    ap.add_argument("--mode", default="qp", choices=["qp", "paper"])
+    ap.add_argument("--config")
+    ap.add_argument("--only", default=",".join(CASES))
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--markdown")
+    args = ap.parse_args()
+    out = Path(args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    build = Path(args.build_dir).resolve()
+    names = [n.strip() for n in args.only.split(",") if n.strip()]
+    results = {}
+    with cf.ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        for name, m in pool.map(run_case, names, [args] * len(names), [build] * len(names), [out] * len(names)):
+            results[name] = m
+            print(name, " ".join(f"{k}={m.get(k)}" for k, _, _ in COLUMNS), flush=True)
+    L = ["| case | " + " | ".join(h for _, h, _ in COLUMNS) + " |", "|---|" + "---:|" * len(COLUMNS)]
+    for name in names:
+        m = results[name]
+        cells = []
+        for k, _, f in COLUMNS:
+            v = m.get(k, "–")
+            try:
+                cells.append(f.format(v))
+            except (ValueError, TypeError):
+                cells.append(str(v))
+        L.append(f"| {name} | " + " | ".join(cells) + " |")
+    total = sum(int(results[n]["reseed_ticks"]) for n in names)
+    L.append(f"\nre-seeding ticks over all cases: {total}")
+    text = "\n".join(L) + "\n"
+    print(text)
+    (out / "matrix.md").write_text(text)
+    if args.markdown:
+        Path(args.markdown).write_text(text)
+
+
+if __name__ == "__main__":
+    main()
