@@ -45,6 +45,7 @@ bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s,
     // (Re)start on this stream: its clock against ours, an empty history.
     buffer_.clear();
     clock_offset_s_ = now_s - frame.time_s;
+    stream_start_s_ = frame.time_s;
   }
   if (!buffer_.push(frame)) {
     ++counters_.frames_rejected;
@@ -86,7 +87,18 @@ const FilterOutput& RealtimeFilter::tick(double now_s) {
     sample_.vdot = hold_.vdot;
     sample_.time_s = now_s;
   } else {
-    buffer_.sample(now_s - clock_offset_s_ - options_.reference_delay_s, sample_);
+    // A stream plays from its first frame: for the first reference delay after the
+    // hand-over the sample waits at that frame (its pose and velocity) instead of a pose
+    // at rest before it, so that the tick's reference and the balance layer's preview (the
+    // same frames) agree. Before it, the sample had v = 0 while the preview's first frame
+    // moved: the layer's reference CoM acceleration (Δċ over the ever shorter time to
+    // that frame) reached 14 m/s² and the closed-loop robot fell.
+    const double t = now_s - clock_offset_s_ - options_.reference_delay_s;
+    buffer_.sample(std::max(t, stream_start_s_), sample_);
+    if (t < stream_start_s_) {
+      sample_.v.setZero();
+      sample_.vdot.setZero();
+    }
   }
   if (options_.use_measured_state && now_s - measured_local_s_ <= options_.measured_state_timeout_s)
     filter_.setMeasuredState(measured_q_, measured_v_);

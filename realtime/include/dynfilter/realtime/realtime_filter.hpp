@@ -99,6 +99,7 @@ class RealtimeFilter {
   ReferenceFrame hold_, sample_;
   Eigen::VectorXd command_, measured_q_, measured_v_;
   double clock_offset_s_ = 0.0;  // local − sender
+  double stream_start_s_ = 0.0;  // the followed stream's first frame (sender's clock)
   double last_frame_local_s_ = -1e300;
   double measured_local_s_ = -1e300;
   bool stale_ = true;
