@@ -49,6 +49,12 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
 
 bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s,
                                   std::int64_t sequence) {
+  // A malformed frame (sizes, non-finite) never reaches the stream policy.
+  if (frame.q.size() != model_.nq() || frame.v.size() != model_.nv() || frame.vdot.size() != model_.nv() ||
+      !frame.q.allFinite() || !frame.v.allFinite() || !frame.vdot.allFinite()) {
+    ++counters_.frames_rejected;
+    return false;
+  }
   const StreamVerdict verdict = references_.judge(frame.time_s, now_s, sequence);
   if (!accepted(verdict)) {
     ++counters_.frames_rejected;
@@ -75,7 +81,7 @@ bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s,
   // The frame as placed in the robot's world (base position and orientation; the base
   // velocities are in base axes and stay).
   placed_.time_s = frame.time_s;
-  placed_.q = frame.q;  // same sizes (validated upstream): no allocation
+  placed_.q = frame.q;  // same sizes (checked above): no allocation
   placed_.v = frame.v;
   placed_.vdot = frame.vdot;
   if (floating) {

@@ -1,5 +1,6 @@
 // The filter as a 1 kHz control loop fed by a slower reference stream.
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -96,6 +97,22 @@ TEST_F(Realtime, AStaleReferenceHoldsThePostureAndResumes) {
   EXPECT_TRUE(rt.addReference(f, 0.9));
   rt.tick(0.901);
   EXPECT_FALSE(rt.stale());
+}
+
+TEST_F(Realtime, MalformedFramesAreRejectedWithoutTouchingTheStream) {
+  RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
+  ReferenceFrame f = frames_[100];
+  ReferenceFrame short_q = f;
+  short_q.q.resize(model_->nq() - 1);
+  EXPECT_FALSE(rt.addReference(short_q, 0.0));
+  ReferenceFrame nan = f;
+  nan.v[10] = std::nan("");
+  EXPECT_FALSE(rt.addReference(nan, 0.0));
+  EXPECT_EQ(rt.counters().frames_rejected, 2u);
+  EXPECT_EQ(rt.referenceStream().counters().streams, 0u) << "the stream policy never saw them";
+  EXPECT_TRUE(rt.addReference(f, 0.001));
+  rt.tick(0.002);
+  EXPECT_TRUE(rt.command().allFinite());
 }
 
 TEST_F(Realtime, FramesGoingBackInTimeAreRejected) {

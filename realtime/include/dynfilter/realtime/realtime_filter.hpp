@@ -75,7 +75,8 @@ class RealtimeFilter {
   /// A validated reference frame; frame.time_s is on the sender's clock (s), @p now_s
   /// the local clock at reception, @p sequence the sender's frame number (-1: none).
   /// Returns false (counted as rejected; referenceStream().lastRejection() says why) when
-  /// the frame is off the followed stream. A frame that starts a new stream (a restarted
+  /// the frame is off the followed stream, and (counted, before the stream policy) when its
+  /// sizes are not the model's or it is not finite. A frame that starts a new stream (a restarted
   /// sender, a jumped clock, after silence) resets the reference history and the clock
   /// offset, and (RealtimeOptions::align_to_robot) places the stream under the robot. With
   /// RealtimeOptions::balance_preview an accepted frame also enters the filter's preview
