@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include <Eigen/Geometry>
 
@@ -44,6 +45,9 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
       command_(Eigen::VectorXd::Zero(model.nj())),
       measured_q_(model.info().neutralConfiguration()),
       measured_v_(Eigen::VectorXd::Zero(model.nv())) {
+  if (!std::isfinite(options.stream_blend_s) || options.stream_blend_s < 0.0 ||
+      !std::isfinite(options.reference_delay_s) || options.reference_delay_s < 0.0)
+    throw std::invalid_argument("RealtimeOptions: stream_blend_s and reference_delay_s must be finite and >= 0");
   filter_.reset(hold_);
 }
 

@@ -115,6 +115,15 @@ TEST_F(Realtime, MalformedFramesAreRejectedWithoutTouchingTheStream) {
   EXPECT_TRUE(rt.command().allFinite());
 }
 
+TEST_F(Realtime, BadOptionsThrow) {
+  RealtimeOptions blend;
+  blend.stream_blend_s = -1.0;
+  EXPECT_THROW(RealtimeFilter(*model_, FilterOptions{}, blend, standingHold(*model_)), std::invalid_argument);
+  RealtimeOptions delay;
+  delay.reference_delay_s = std::nan("");
+  EXPECT_THROW(RealtimeFilter(*model_, FilterOptions{}, delay, standingHold(*model_)), std::invalid_argument);
+}
+
 TEST_F(Realtime, FramesGoingBackInTimeAreRejected) {
   RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
   ReferenceFrame f = frames_[100];

@@ -2,7 +2,9 @@
 /// @file
 /// The filter as a control loop: reference frames arrive at their own rate on the
 /// sender's clock; the loop ticks at a fixed rate, samples the reference (interpolated,
-/// a fixed delay behind the newest frame so that there is always a frame on each side),
+/// a fixed delay behind the newest frame so that there is always a frame on each side;
+/// a stream plays from its first frame, never before it), places a floating-base stream
+/// under the robot and blends the robot's posture into it (RealtimeOptions),
 /// optionally closes the loop on the measured robot state, and produces torque commands
 /// that are finite and within the URDF limits. Transport-free: the LCM processes and the
 /// tests drive it the same way. tick() does not allocate.
@@ -68,6 +70,8 @@ struct Counters {
 class RealtimeFilter {
  public:
   /// Holds @p hold_posture (a reference frame of the model) until the first frame arrives.
+  /// Throws std::invalid_argument on a negative or non-finite stream_blend_s or
+  /// reference_delay_s (and as MessageStream on bad stream options).
   RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,
                  const RealtimeOptions& options, const ReferenceFrame& hold_posture,
                  const QpSolverFactory& qp_solver = {});
@@ -101,8 +105,8 @@ class RealtimeFilter {
   /// The horizontal placement of the followed stream (RealtimeOptions::align_to_robot):
   /// world-from-stream, a rotation about z and a translation in x, y (identity without).
   const Eigen::Isometry3d& streamPlacement() const { return X_WS_; }
-  /// The followed stream's soft-start offset q_robot ⊖ q_first (nv; RealtimeOptions::
-  /// stream_blend_s), faded out over the stream's first stream_blend_s.
+  /// The followed stream's soft-start offset q_robot ⊖ q_first (nv, zero without a blend;
+  /// RealtimeOptions::stream_blend_s), faded out over the stream's first stream_blend_s.
   const Eigen::VectorXd& streamOffset() const { return blend_offset_; }
   /// The reference sample the last tick used (its time on the sender's clock).
   const ReferenceFrame& lastReference() const { return sample_; }
