@@ -20,6 +20,9 @@ StreamOptions streamOptions(const RealtimeOptions& options, double silence_s) {
   return s;
 }
 
+// A play time held back (a late sender) catches up at most this fast (× real time).
+constexpr double kCatchUpRate = 1.5;
+
 // Yaw of the base orientation (w, x, y, z at q[3..6]): the heading of its x axis in the
 // horizontal plane.
 double baseYaw(const Eigen::Ref<const Eigen::VectorXd>& q) {
@@ -74,6 +77,7 @@ bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s,
     buffer_.clear();
     clock_offset_s_ = now_s - frame.time_s;
     stream_start_s_ = frame.time_s;
+    play_s_ = frame.time_s;
     X_WS_.setIdentity();
     if (floating && options_.align_to_robot) {
       const double yaw = baseYaw(robot) - baseYaw(frame.q);
@@ -150,19 +154,26 @@ const FilterOutput& RealtimeFilter::tick(double now_s) {
     sample_.vdot = hold_.vdot;
     sample_.time_s = now_s;
   } else {
-    // A stream plays from its first frame: for the first reference delay after the
-    // hand-over the sample waits at that frame (its pose and velocity) instead of a pose
-    // at rest before it, so that the tick's reference and the balance layer's preview (the
-    // same frames) agree. Before it, the sample had v = 0 while the preview's first frame
-    // moved: the layer's reference CoM acceleration (Δċ over the ever shorter time to
-    // that frame) reached 14 m/s² and the closed-loop robot fell.
-    const double t = now_s - clock_offset_s_ - options_.reference_delay_s;
-    buffer_.sample(std::max(t, stream_start_s_), sample_);
-    if (t < stream_start_s_) {
+    // The play time follows the sender's clock a reference delay behind, but a stream
+    // plays from its first frame (for the first reference delay the sample waits there, at
+    // rest: sampling before it, at rest, while the balance layer's preview held that frame
+    // moving, gave a reference CoM acceleration Δċ/Δt of up to 14 m/s² and the closed-loop
+    // robot fell), never runs past the newest frame (a late sender: it waits there, at
+    // rest), and after waiting catches up at most kCatchUpRate × real time instead of
+    // jumping ahead.
+    const double target = now_s - clock_offset_s_ - options_.reference_delay_s;
+    const double dt = std::clamp(now_s - last_tick_s_, 0.0, 1.0);
+    double play = play_s_ < target ? std::min(target, play_s_ + kCatchUpRate * dt) : play_s_;
+    play = std::max(std::min(play, buffer_.newestTime()), stream_start_s_);
+    const bool waiting = target < stream_start_s_ || (play >= buffer_.newestTime() && target > play);
+    play_s_ = play;
+    buffer_.sample(play, sample_);
+    if (waiting) {
       sample_.v.setZero();
       sample_.vdot.setZero();
     }
   }
+  last_tick_s_ = now_s;
   if (options_.use_measured_state && now_s - measured_local_s_ <= options_.measured_state_timeout_s)
     filter_.setMeasuredState(measured_q_, measured_v_);
 

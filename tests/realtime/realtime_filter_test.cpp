@@ -305,6 +305,40 @@ TEST_F(Realtime, TheSampleNeverPrecedesTheStreamsFirstFrame) {
   EXPECT_NEAR(previous_time, kSenderClock + 0.199 - 0.05, 1e-9) << "then it plays 50 ms behind";
 }
 
+// A sender silent for 200 ms every 0.5 s (descheduled on a loaded machine): the sampled
+// time never passes the newest frame (it waits there, at rest) and never jumps — after a
+// wait it catches up at most 1.5× real time. Before, it ran past the newest frame (its pose
+// at rest) and jumped on by up to 150 ms of motion when the next frame came.
+TEST_F(Realtime, AfterASendersSilenceTheSampleCatchesUpWithoutJumping) {
+  RealtimeOptions options;
+  options.stream_blend_s = 0.0;
+  RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
+  double previous = -1.0, newest = -1.0, largest_advance = 0.0;
+  int waiting_ticks = 0;
+  for (int tick = 0; tick < 1400; ++tick) {
+    const double now = 0.001 * tick;
+    const bool silent = tick >= 200 && (tick - 200) % 500 < 200;
+    if (tick % 16 == 0 && !silent) {
+      ReferenceFrame f = frames_[static_cast<std::size_t>(tick)];
+      f.time_s = kSenderClock + now;
+      ASSERT_TRUE(rt.addReference(f, now));
+      newest = f.time_s;
+    }
+    rt.tick(now);
+    const ReferenceFrame& r = rt.lastReference();
+    ASSERT_LE(r.time_s, newest + 1e-12) << "tick " << tick << ": past the newest frame";
+    if (previous >= 0.0) largest_advance = std::max(largest_advance, r.time_s - previous);
+    if (previous >= 0.0 && r.time_s == previous) {
+      ++waiting_ticks;
+      EXPECT_EQ(r.v.cwiseAbs().maxCoeff(), 0.0) << "waiting at rest, tick " << tick;
+    }
+    previous = r.time_s;
+  }
+  EXPECT_LE(largest_advance, 1.5e-3 + 1e-12) << "no jump";
+  EXPECT_GT(waiting_ticks, 300) << "it waited in each silence";
+  EXPECT_EQ(rt.counters().stale_ticks, 0u);
+}
+
 // A stream captured elsewhere (2 m away, turned 1 rad) starts under the robot: the
 // horizontal placement takes its first base pose onto the filter's; later frames keep
 // their motion relative to the first. Off, the frames are used as they come.

@@ -3,7 +3,8 @@
 /// The filter as a control loop: reference frames arrive at their own rate on the
 /// sender's clock; the loop ticks at a fixed rate, samples the reference (interpolated,
 /// a fixed delay behind the newest frame so that there is always a frame on each side;
-/// a stream plays from its first frame, never before it), places a floating-base stream
+/// a stream plays from its first frame, never before it, never past its newest frame,
+/// and after waiting for a late sender catches up at most 1.5× real time), places a floating-base stream
 /// under the robot and blends the robot's posture into it (RealtimeOptions),
 /// optionally closes the loop on the measured robot state, and produces torque commands
 /// that are finite and within the URDF limits. Transport-free: the LCM processes and the
@@ -129,6 +130,8 @@ class RealtimeFilter {
   Eigen::VectorXd command_, measured_q_, measured_v_;
   double clock_offset_s_ = 0.0;  // local − sender
   double stream_start_s_ = 0.0;  // the followed stream's first frame (sender's clock)
+  double play_s_ = 0.0;          // the sampled time (sender's clock)
+  double last_tick_s_ = 0.0;     // local time of the previous tick
   double last_frame_local_s_ = -1e300;
   double measured_local_s_ = -1e300;
   bool stale_ = true;
