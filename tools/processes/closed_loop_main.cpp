@@ -90,9 +90,9 @@ int main(int argc, char** argv) {
     else std::printf("stood\n");
     std::printf("re-seeds %llu", static_cast<unsigned long long>(r.reseeds));
     for (int i = 1; i < 7; ++i)
-      if (r.reseed_ticks_by_reason[i] > 0)
+      if (r.reseed_ticks_by_reason[static_cast<std::size_t>(i)] > 0)
         std::printf(", %s: %llu", toString(static_cast<ReseedReason>(i)),
-                    static_cast<unsigned long long>(r.reseed_ticks_by_reason[i]));
+                    static_cast<unsigned long long>(r.reseed_ticks_by_reason[static_cast<std::size_t>(i)]));
     std::printf("; status bits seen 0x%x\n", r.status_union);
     return r.fell_at_s >= 0.0 ? 1 : 0;
   } catch (const std::exception& e) {

@@ -41,7 +41,6 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
   player.switchTo(0, 0.0);
   const double frame_period = 1.0 / player.frameRate();
   ReferenceFrame frame(info.nq, info.nv);
-  std::vector<ReferenceFrame> in_flight;  // sent this tick, received at the tick
   std::int64_t sequence = 0;
   double next_send = setup.replay_start_s;
 
@@ -63,8 +62,8 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
     rt.addMeasuredState(robot->q(), robot->v(), now, now);
     const FilterOutput& out = rt.tick(now);
     r.status_union |= rt.status();
-    r.reseed_ticks_by_reason[std::clamp(static_cast<int>(out.reseed_reason), 0, 6)] +=
-        (out.status & kStatusReseeded) ? 1u : 0u;
+    if (out.status & kStatusReseeded)
+      ++r.reseed_ticks_by_reason[static_cast<std::size_t>(std::clamp(static_cast<int>(out.reseed_reason), 0, 6))];
     tau = rt.command();
     for (int s = 0; s < engine.substeps; ++s) robot->simulateStep(tau, dt / engine.substeps);
     ++r.ticks;

@@ -10,6 +10,8 @@
 // does. Every tick: frames received so far enter the filter, then the robot's state, then
 // the filter ticks and the robot applies the command for one step (the next state answers
 // it), as over LCM.
+#include <array>
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -40,7 +42,9 @@ struct ClosedLoopResult {
   double min_base_z_m = 1e9, min_base_z_time_s = 0.0;
   double max_tilt_rad = 0.0;     ///< base tilt from upright (rad)
   double fell_at_s = -1.0;       ///< first time (s after the replay start) below fallen_below_m
-  std::uint64_t reseeds = 0, reseed_ticks_by_reason[7] = {};
+  std::uint64_t reseeds = 0;
+  /// Re-seeding ticks by ReseedReason (index = the enum's value, 0 unused).
+  std::array<std::uint64_t, 7> reseed_ticks_by_reason{};
   std::uint32_t status_union = 0;
   std::uint64_t frames_sent = 0;
 };
