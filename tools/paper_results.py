@@ -96,6 +96,7 @@ class Model:
     """The URDF's tree: links in file order, each link's parent and its joint."""
 
     def __init__(self, urdf):
+        self.path = str(urdf)
         root = ET.parse(urdf).getroot()
         self.links = [l.get("name") for l in root.findall("link")]
         self.parent = {}
@@ -372,7 +373,7 @@ def motion_metrics(filtered_csv, reference_csv, bodies_csv, contacts_csv, events
         [fil[f"err.base_{c}"] for c in "xyz"]) ** 2, axis=1))))
     m["max_base_jump_mm"] = 1000.0 * float(np.max(np.linalg.norm(np.diff(base, axis=0), axis=1))) \
         if len(base) > 1 else 0.0
-    body = dr.Body(URDF)
+    body = dr.Body(model.path)  # this model's masses (the G1's for g1_walk, not the figure's)
     idx = np.clip(np.searchsorted(ref["time"], fil["time"] - 1e-9), 0, len(ref["time"]) - 1)
     c_f = np.array([body.com_of(*body.fk(*q_of(fil, k, model.moving))) for k in range(len(fil["time"]))])
     c_r = np.array([body.com_of(*body.fk(*q_of(ref, i, model.moving))) for i in idx])
@@ -382,7 +383,8 @@ def motion_metrics(filtered_csv, reference_csv, bodies_csv, contacts_csv, events
     times, _, fil_b = read_bodies(bodies_csv, model.links)
     c = read_contact_rows(contacts_csv)
     worst = 0.0
-    for foot in [l for l in model.links if "foot" in l]:
+    # Every body the filter held in contact (soles, or a knee): no link names assumed.
+    for foot in sorted(set(c["body"])) if c else []:
         li = model.links.index(foot)
         on = set(np.round(c["time"][c["body"] == foot], 6)) if c else set()
         start = None

@@ -2,8 +2,8 @@
 // reference and robot-state channels: ReferenceFrameReader::read / RobotStateReader::read
 // (fingerprint, counts and string lengths in the raw bytes, decode, validation) for the
 // human figure with a floating base and with a fixed base (--fixed-base). Each message is
-// read twice by the same reader (the second read takes the cached joint-name path and the
-// time check). Nothing may throw; an accepted message must come out finite, with a unit
+// read twice by the same reader (the second read takes the cached joint-name path; time
+// order is the stream's matter, realtime/MessageStream). Nothing may throw; an accepted message must come out finite, with a unit
 // base quaternion, and a rejection must leave the output untouched.
 #include <cmath>
 #include <cstring>

@@ -2,6 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+
+#include "dynfilter/core/lie_group.hpp"
 
 namespace dynfilter::realtime {
 namespace {
@@ -13,6 +18,16 @@ StreamOptions streamOptions(const RealtimeOptions& options, double silence_s) {
   s.max_clock_offset_s = options.max_clock_offset_s;
   s.silence_s = silence_s;
   return s;
+}
+
+// A play time held back (a late sender) catches up at most this fast (× real time).
+constexpr double kCatchUpRate = 1.5;
+
+// Yaw of the base orientation (w, x, y, z at q[3..6]): the heading of its x axis in the
+// horizontal plane.
+double baseYaw(const Eigen::Ref<const Eigen::VectorXd>& q) {
+  const Eigen::Matrix3d R = Eigen::Quaterniond(q[3], q[4], q[5], q[6]).normalized().toRotationMatrix();
+  return std::atan2(R(1, 0), R(0, 0));
 }
 
 }  // namespace
@@ -28,33 +43,86 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
       states_(streamOptions(options, options.measured_state_timeout_s)),
       hold_(hold_posture),
       sample_(model.nq(), model.nv()),
+      placed_(model.nq(), model.nv()),
+      blend_offset_(Eigen::VectorXd::Zero(model.nv())),
       command_(Eigen::VectorXd::Zero(model.nj())),
       measured_q_(model.info().neutralConfiguration()),
       measured_v_(Eigen::VectorXd::Zero(model.nv())) {
+  if (!std::isfinite(options.stream_blend_s) || options.stream_blend_s < 0.0 ||
+      !std::isfinite(options.reference_delay_s) || options.reference_delay_s < 0.0)
+    throw std::invalid_argument("RealtimeOptions: stream_blend_s and reference_delay_s must be finite and >= 0");
   filter_.reset(hold_);
 }
 
 bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s,
                                   std::int64_t sequence) {
+  // A malformed frame (sizes, non-finite) never reaches the stream policy.
+  if (frame.q.size() != model_.nq() || frame.v.size() != model_.nv() || frame.vdot.size() != model_.nv() ||
+      !frame.q.allFinite() || !frame.v.allFinite() || !frame.vdot.allFinite()) {
+    ++counters_.frames_rejected;
+    return false;
+  }
   const StreamVerdict verdict = references_.judge(frame.time_s, now_s, sequence);
   if (!accepted(verdict)) {
     ++counters_.frames_rejected;
     return false;
   }
-  if (stale_ || verdict == StreamVerdict::kNewStream) {
-    // (Re)start on this stream: its clock against ours, an empty history.
+  const bool floating = model_.info().floating_base;
+  const bool starts = stale_ || verdict == StreamVerdict::kNewStream;
+  const bool measured =
+      options_.use_measured_state && now_s - measured_local_s_ <= options_.measured_state_timeout_s;
+  const Eigen::VectorXd& robot = measured ? measured_q_ : filter_.q();
+  if (starts) {
+    // (Re)start on this stream: its clock against ours, an empty history, its placement.
     buffer_.clear();
     clock_offset_s_ = now_s - frame.time_s;
+    stream_start_s_ = frame.time_s;
+    play_s_ = frame.time_s;
+    X_WS_.setIdentity();
+    if (floating && options_.align_to_robot) {
+      const double yaw = baseYaw(robot) - baseYaw(frame.q);
+      X_WS_.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      const Eigen::Vector3d p_S(frame.q[0], frame.q[1], 0.0), p_W(robot[0], robot[1], 0.0);
+      X_WS_.translation() = p_W - X_WS_.linear() * p_S;
+    }
   }
-  if (!buffer_.push(frame)) {
+  // The frame as placed in the robot's world (base position and orientation; the base
+  // velocities are in base axes and stay).
+  placed_.time_s = frame.time_s;
+  placed_.q = frame.q;  // same sizes (checked above): no allocation
+  placed_.v = frame.v;
+  placed_.vdot = frame.vdot;
+  if (floating) {
+    placed_.q.head<3>() = X_WS_ * Eigen::Vector3d(frame.q.head<3>());
+    const Eigen::Quaterniond R_SB(frame.q[3], frame.q[4], frame.q[5], frame.q[6]);
+    const Eigen::Quaterniond R_WB = Eigen::Quaterniond(X_WS_.linear()) * R_SB;
+    placed_.q.segment<4>(3) << R_WB.w(), R_WB.x(), R_WB.y(), R_WB.z();
+  }
+  // Soft start: q ⊕ w d with w = 1 − s(τ), s the quintic 0 → 1 over the blend time.
+  if (starts) {
+    if (options_.stream_blend_s > 0.0) differenceConfiguration(floating, placed_.q, robot, blend_offset_);
+    else blend_offset_.setZero();
+  }
+  const double tau = options_.stream_blend_s > 0.0
+                         ? (frame.time_s - stream_start_s_) / options_.stream_blend_s
+                         : 1.0;
+  if (tau < 1.0) {
+    const double T = options_.stream_blend_s, t2 = tau * tau;
+    const double w = 1.0 - t2 * tau * (10.0 - 15.0 * tau + 6.0 * t2);
+    const double wdot = -30.0 * t2 * (1.0 - tau) * (1.0 - tau) / T;
+    const double wddot = -60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / (T * T);
+    integrateConfiguration(floating, placed_.q, blend_offset_, w, placed_.q);
+    placed_.v += wdot * blend_offset_;
+    placed_.vdot += wddot * blend_offset_;
+  }
+  if (!buffer_.push(placed_)) {
     ++counters_.frames_rejected;
     return false;
   }
   ++counters_.frames_accepted;
-  // Look-ahead of the QP mode's balance layer (the frames between the sampled time and
-  // the newest), only when asked for: with it, the ODE robot in the LCM closed loop fell
-  // in 2 of 3 runs on a loaded machine (0 of 3 without; cause not found yet).
-  if (options_.balance_preview) filter_.previewFrame(frame);
+  // Look-ahead of the QP mode's balance layer: the frames between the sampled time and the
+  // newest.
+  if (options_.balance_preview) filter_.previewFrame(placed_);
   last_frame_local_s_ = now_s;
   stale_ = false;
   return true;
@@ -86,8 +154,26 @@ const FilterOutput& RealtimeFilter::tick(double now_s) {
     sample_.vdot = hold_.vdot;
     sample_.time_s = now_s;
   } else {
-    buffer_.sample(now_s - clock_offset_s_ - options_.reference_delay_s, sample_);
+    // The play time follows the sender's clock a reference delay behind, but a stream
+    // plays from its first frame (for the first reference delay the sample waits there, at
+    // rest: sampling before it, at rest, while the balance layer's preview held that frame
+    // moving, gave a reference CoM acceleration Δċ/Δt of up to 14 m/s² and the closed-loop
+    // robot fell), never runs past the newest frame (a late sender: it waits there, at
+    // rest), and after waiting catches up at most kCatchUpRate × real time instead of
+    // jumping ahead.
+    const double target = now_s - clock_offset_s_ - options_.reference_delay_s;
+    const double dt = std::clamp(now_s - last_tick_s_, 0.0, 1.0);
+    double play = play_s_ < target ? std::min(target, play_s_ + kCatchUpRate * dt) : play_s_;
+    play = std::max(std::min(play, buffer_.newestTime()), stream_start_s_);
+    const bool waiting = target < stream_start_s_ || (play >= buffer_.newestTime() && target > play);
+    play_s_ = play;
+    buffer_.sample(play, sample_);
+    if (waiting) {
+      sample_.v.setZero();
+      sample_.vdot.setZero();
+    }
   }
+  last_tick_s_ = now_s;
   if (options_.use_measured_state && now_s - measured_local_s_ <= options_.measured_state_timeout_s)
     filter_.setMeasuredState(measured_q_, measured_v_);
 

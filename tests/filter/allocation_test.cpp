@@ -234,6 +234,8 @@ TEST(Allocation, RealtimeTickAndReferenceIntakeAllocateNothing) {
     rt.addReference(frames[static_cast<std::size_t>(k)], 0.001 * k);
     rt.tick(0.001 * k);
   }
+  ReferenceFrame resumed = frames[450];
+  resumed.time_s = 0.75;
   resetCounts();
   g_counting = true;
   for (int k = 50; k < 450; ++k) {
@@ -242,9 +244,15 @@ TEST(Allocation, RealtimeTickAndReferenceIntakeAllocateNothing) {
     rt.addMeasuredState(f.q, f.v, 0.001 * k, 0.001 * k);
     rt.tick(0.001 * k);
   }
+  // Silence past the stale timeout, then the stream again: its hand-over (placement under
+  // the robot, soft start) allocates nothing either.
+  for (int k = 450; k < 750; ++k) rt.tick(0.001 * k);
+  EXPECT_TRUE(rt.addReference(resumed, 0.75));
+  rt.tick(0.75);
   g_counting = false;
   EXPECT_TRUE(rt.command().allFinite());
-  expectNoCoreAllocations(400);
+  EXPECT_FALSE(rt.stale());
+  expectNoCoreAllocations(701);
 }
 
 }  // namespace

@@ -1,10 +1,13 @@
 // The filter as a 1 kHz control loop fed by a slower reference stream.
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <regex>
 #include <sstream>
 
 #include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
 
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/realtime/realtime_filter.hpp"
@@ -96,6 +99,31 @@ TEST_F(Realtime, AStaleReferenceHoldsThePostureAndResumes) {
   EXPECT_FALSE(rt.stale());
 }
 
+TEST_F(Realtime, MalformedFramesAreRejectedWithoutTouchingTheStream) {
+  RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
+  ReferenceFrame f = frames_[100];
+  ReferenceFrame short_q = f;
+  short_q.q.resize(model_->nq() - 1);
+  EXPECT_FALSE(rt.addReference(short_q, 0.0));
+  ReferenceFrame nan = f;
+  nan.v[10] = std::nan("");
+  EXPECT_FALSE(rt.addReference(nan, 0.0));
+  EXPECT_EQ(rt.counters().frames_rejected, 2u);
+  EXPECT_EQ(rt.referenceStream().counters().streams, 0u) << "the stream policy never saw them";
+  EXPECT_TRUE(rt.addReference(f, 0.001));
+  rt.tick(0.002);
+  EXPECT_TRUE(rt.command().allFinite());
+}
+
+TEST_F(Realtime, BadOptionsThrow) {
+  RealtimeOptions blend;
+  blend.stream_blend_s = -1.0;
+  EXPECT_THROW(RealtimeFilter(*model_, FilterOptions{}, blend, standingHold(*model_)), std::invalid_argument);
+  RealtimeOptions delay;
+  delay.reference_delay_s = std::nan("");
+  EXPECT_THROW(RealtimeFilter(*model_, FilterOptions{}, delay, standingHold(*model_)), std::invalid_argument);
+}
+
 TEST_F(Realtime, FramesGoingBackInTimeAreRejected) {
   RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
   ReferenceFrame f = frames_[100];
@@ -161,6 +189,7 @@ TEST_F(Realtime, OneFutureStampedFrameDoesNotInterruptTheRealStream) {
 TEST_F(Realtime, AFutureStampedFirstFrameThenTheRealStreamIsTrackedWithinTheStaleTimeout) {
   RealtimeOptions options;
   ASSERT_EQ(options.stale_timeout_s, 0.25);
+  options.stream_blend_s = 0.0;  // compared with the stream itself (no soft start)
   RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
   const double worst = runStream(
       rt, frames_, 1000, 150, [](int) { return kSenderClock; },
@@ -179,7 +208,9 @@ TEST_F(Realtime, AFutureStampedFirstFrameThenTheRealStreamIsTrackedWithinTheStal
 }
 
 TEST_F(Realtime, ARestartedSenderIsFollowedWithinTheStaleTimeout) {
-  RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
+  RealtimeOptions options;
+  options.stream_blend_s = 0.0;  // compared with the stream itself (no soft start)
+  RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
   // At tick 608 the sender restarts: its clock (and sequence) start again at 0.
   auto offset = [](int tick) { return tick < 608 ? kSenderClock : -0.608; };
   double worst = runStream(rt, frames_, 600, 100, offset, [](int, double) {});
@@ -242,6 +273,164 @@ TEST_F(Realtime, RobotStatesFollowTheirOwnStream) {
   EXPECT_TRUE(rt.addMeasuredState(f.q, f.v, 0.003, 0.104));
   EXPECT_EQ(rt.stateStream().counters().streams, 2u);
   EXPECT_EQ(rt.stateStream().counters().rejected, 4u);
+}
+
+// A stream's first frame arrives; for the reference delay after it the sample waits at
+// that frame, at rest, on the sender's clock, instead of sampling before it (where the
+// balance layer's preview, which starts at that frame, had nothing to agree with).
+TEST_F(Realtime, TheSampleNeverPrecedesTheStreamsFirstFrame) {
+  RealtimeOptions options;
+  options.stream_blend_s = 0.0;
+  RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
+  const int nj = model_->nj();
+  double previous_time = -1e300;
+  for (int tick = 0; tick < 200; ++tick) {
+    const double now = 0.001 * tick;
+    if (tick % 16 == 0) {
+      ReferenceFrame f = frames_[static_cast<std::size_t>(300 + tick)];  // mid-motion
+      f.time_s = kSenderClock + now;
+      ASSERT_TRUE(rt.addReference(f, now));
+    }
+    rt.tick(now);
+    const ReferenceFrame& r = rt.lastReference();
+    ASSERT_GE(r.time_s, kSenderClock) << "tick " << tick << ": before the first frame";
+    ASSERT_GE(r.time_s, previous_time) << "tick " << tick;
+    previous_time = r.time_s;
+    if (tick < 50) {  // the reference delay: the first frame, at rest
+      EXPECT_EQ(r.time_s, kSenderClock) << "tick " << tick;
+      EXPECT_LT((r.q - frames_[300].q).tail(nj).cwiseAbs().maxCoeff(), 1e-12);
+      EXPECT_EQ(r.v.cwiseAbs().maxCoeff(), 0.0);
+    }
+  }
+  EXPECT_NEAR(previous_time, kSenderClock + 0.199 - 0.05, 1e-9) << "then it plays 50 ms behind";
+}
+
+// A sender silent for 200 ms every 0.5 s (descheduled on a loaded machine): the sampled
+// time never passes the newest frame (it waits there, at rest) and never jumps — after a
+// wait it catches up at most 1.5× real time. Before, it ran past the newest frame (its pose
+// at rest) and jumped on by up to 150 ms of motion when the next frame came.
+TEST_F(Realtime, AfterASendersSilenceTheSampleCatchesUpWithoutJumping) {
+  RealtimeOptions options;
+  options.stream_blend_s = 0.0;
+  RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
+  double previous = -1.0, newest = -1.0, largest_advance = 0.0;
+  int waiting_ticks = 0;
+  for (int tick = 0; tick < 1400; ++tick) {
+    const double now = 0.001 * tick;
+    const bool silent = tick >= 200 && (tick - 200) % 500 < 200;
+    if (tick % 16 == 0 && !silent) {
+      ReferenceFrame f = frames_[static_cast<std::size_t>(tick)];
+      f.time_s = kSenderClock + now;
+      ASSERT_TRUE(rt.addReference(f, now));
+      newest = f.time_s;
+    }
+    rt.tick(now);
+    const ReferenceFrame& r = rt.lastReference();
+    ASSERT_LE(r.time_s, newest + 1e-12) << "tick " << tick << ": past the newest frame";
+    if (previous >= 0.0) largest_advance = std::max(largest_advance, r.time_s - previous);
+    if (previous >= 0.0 && r.time_s == previous) {
+      ++waiting_ticks;
+      EXPECT_EQ(r.v.cwiseAbs().maxCoeff(), 0.0) << "waiting at rest, tick " << tick;
+    }
+    previous = r.time_s;
+  }
+  EXPECT_LE(largest_advance, 1.5e-3 + 1e-12) << "no jump";
+  EXPECT_GT(waiting_ticks, 300) << "it waited in each silence";
+  EXPECT_EQ(rt.counters().stale_ticks, 0u);
+}
+
+// A stream captured elsewhere (2 m away, turned 1 rad) starts under the robot: the
+// horizontal placement takes its first base pose onto the filter's; later frames keep
+// their motion relative to the first. Off, the frames are used as they come.
+TEST_F(Realtime, AStreamCapturedElsewhereIsPlacedUnderTheRobot) {
+  Eigen::Isometry3d X_CW = Eigen::Isometry3d::Identity();  // the capture's world from ours
+  X_CW.linear() = Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  X_CW.translation() = Eigen::Vector3d(2.0, -1.0, 0.0);
+  auto captured = [&](int i) {
+    ReferenceFrame f = frames_[static_cast<std::size_t>(i)];
+    f.q.head<3>() = X_CW * Eigen::Vector3d(f.q.head<3>());
+    const Eigen::Quaterniond R(Eigen::Quaterniond(X_CW.linear()) *
+                               Eigen::Quaterniond(f.q[3], f.q[4], f.q[5], f.q[6]));
+    f.q.segment<4>(3) << R.w(), R.x(), R.y(), R.z();
+    f.time_s = kSenderClock + 0.001 * i;
+    return f;
+  };
+  for (const bool align : {true, false}) {
+    RealtimeOptions options;
+    options.align_to_robot = align;
+    options.stream_blend_s = 0.0;
+    RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
+    const Eigen::Vector2d robot_xy = rt.filter().q().head<2>();
+    double worst_m = 0.0;
+    for (int tick = 0; tick < 600; ++tick) {
+      if (tick % 16 == 0) {
+        ASSERT_TRUE(rt.addReference(captured(tick), 0.001 * tick));
+      }
+      rt.tick(0.001 * tick);
+      if (tick < 60) continue;
+      // The sample against the motion at its time, taken back to our world.
+      const int i = static_cast<int>(std::lround((rt.lastReference().time_s - kSenderClock) * 1000.0));
+      const Eigen::Vector3d expected =
+          rt.streamPlacement() * (X_CW * Eigen::Vector3d(frames_[static_cast<std::size_t>(i)].q.head<3>()));
+      worst_m = std::max(worst_m, (rt.lastReference().q.head<3>() - expected).norm());
+    }
+    EXPECT_LT(worst_m, 1e-3) << "the placement is one rigid motion for the whole stream";
+    const Eigen::Isometry3d X = rt.streamPlacement() * X_CW;  // ours from ours: identity when placed
+    if (align) {
+      // The sway starts within a millimetre of the hold pose at the origin.
+      EXPECT_LT((X.translation().head<2>() - robot_xy + frames_[0].q.head<2>() - robot_xy).norm(), 2e-3);
+      EXPECT_LT(Eigen::AngleAxisd(X.linear()).angle(), 1e-3);
+    } else {
+      EXPECT_TRUE(rt.streamPlacement().isApprox(Eigen::Isometry3d::Identity()));
+      EXPECT_GT(rt.lastReference().q.head<2>().norm(), 2.0);
+    }
+  }
+}
+
+// Soft start: a stream whose joints are 0.3 rad from the robot's posture starts at the
+// robot's posture and is reached smoothly after stream_blend_s; without it the sample
+// steps by 0.3 rad.
+TEST_F(Realtime, AStreamStartsAtTheRobotsPostureAndBlendsIntoTheStream) {
+  const int nj = model_->nj();
+  for (const double blend_s : {0.5, 0.0}) {
+    RealtimeOptions options;
+    options.stream_blend_s = blend_s;
+    RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
+    Eigen::VectorXd previous = rt.filter().q();
+    const Eigen::VectorXd robot_at_start = rt.filter().q();
+    double largest_step = 0.0, worst_after = 0.0;
+    for (int tick = 0; tick < 800; ++tick) {
+      const double now = 0.001 * tick;
+      if (tick % 16 == 0) {
+        ReferenceFrame f = frames_[static_cast<std::size_t>(tick)];
+        f.q.tail(nj).array() += 0.3;
+        f.time_s = kSenderClock + now;
+        ASSERT_TRUE(rt.addReference(f, now));
+      }
+      rt.tick(now);
+      const ReferenceFrame& r = rt.lastReference();
+      if (tick == 0 && blend_s > 0.0) {
+        EXPECT_LT((r.q - robot_at_start).tail(nj).cwiseAbs().maxCoeff(), 1e-9) << "starts at the robot";
+      }
+      largest_step = std::max(largest_step, (r.q - previous).tail(nj).cwiseAbs().maxCoeff());
+      previous = r.q;
+      // After the blend (and the sway's start-up transient, coarse at 60 Hz).
+      if (r.time_s >= kSenderClock + std::max(blend_s, 0.1) + 0.01) {
+        const int i = static_cast<int>(std::lround((r.time_s - kSenderClock) * 1000.0));
+        Eigen::VectorXd q = frames_[static_cast<std::size_t>(i)].q;
+        q.tail(nj).array() += 0.3;
+        worst_after = std::max(worst_after, (r.q - q).tail(nj).cwiseAbs().maxCoeff());
+      }
+    }
+    EXPECT_LT(worst_after, 2e-3) << "blend " << blend_s << ": then the stream itself";
+    if (blend_s > 0.0) {
+      // 0.3 rad over 0.5 s with the quintic's peak slope 1.875: 1.1e-3 rad a tick, plus the motion.
+      EXPECT_LT(largest_step, 2e-3);
+      EXPECT_LT(rt.streamOffset().tail(nj).maxCoeff(), -0.29);
+    } else {
+      EXPECT_GT(largest_step, 0.29);
+    }
+  }
 }
 
 TEST(RealtimeLimits, CommandsAreClampedToTheUrdfEffortLimits) {

@@ -188,8 +188,16 @@ int main(int argc, char** argv) {
                "start each tick from the robot's measured state; the robot's state messages "
                "then trigger the ticks (the rate becomes the robot's), falling back to "
                "--rate-hz when they stop");
-  app.add_flag("--balance-preview", rt_options.balance_preview,
-               "feed the reference delay's frames to the balance layer as look-ahead (experimental)");
+  app.add_flag("--balance-preview,!--no-balance-preview", rt_options.balance_preview,
+               "feed the reference delay's frames to the balance layer as its look-ahead "
+               "(default: on)");
+  app.add_flag("--align-reference,!--no-align-reference", rt_options.align_to_robot,
+               "place each reference stream under the robot: x, y and yaw of its first frame "
+               "onto the robot's base (default: on; off: frames are in the robot's world)");
+  app.add_option("--stream-blend-s", rt_options.stream_blend_s,
+                 "soft start: fade the robot's offset from a new stream's first frame out over "
+                 "this time (0: none)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--stale-timeout-s", rt_options.stale_timeout_s, "hold posture after this silence");
   app.add_option("--reference-delay-s", rt_options.reference_delay_s,
                  "play the reference this far behind its newest frame");

@@ -2,7 +2,10 @@
 /// @file
 /// The filter as a control loop: reference frames arrive at their own rate on the
 /// sender's clock; the loop ticks at a fixed rate, samples the reference (interpolated,
-/// a fixed delay behind the newest frame so that there is always a frame on each side),
+/// a fixed delay behind the newest frame so that there is always a frame on each side;
+/// a stream plays from its first frame, never before it, never past its newest frame,
+/// and after waiting for a late sender catches up at most 1.5× real time), places a floating-base stream
+/// under the robot and blends the robot's posture into it (RealtimeOptions),
 /// optionally closes the loop on the measured robot state, and produces torque commands
 /// that are finite and within the URDF limits. Transport-free: the LCM processes and the
 /// tests drive it the same way. tick() does not allocate.
@@ -10,6 +13,7 @@
 #include <cstdint>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/reference_buffer.hpp"
@@ -18,13 +22,27 @@
 namespace dynfilter::realtime {
 
 struct RealtimeOptions {
+  /// Feed accepted frames (as placed and blended) to the balance layer's look-ahead
+  /// (DynamicsFilter::previewFrame): the reference delay is its preview window.
+  bool balance_preview = true;
   /// No reference frame for this long (s) → hold the current posture (damped by the
   /// filter's feedback) and report kStatusStaleReference.
-  /// Feed accepted frames to the balance layer's look-ahead (DynamicsFilter::
-  /// previewFrame). Off by default: in the closed loop on a loaded machine it made the
-  /// robot fall (README "Real-time stack"); the balance layer then works without preview.
-  bool balance_preview = false;
   double stale_timeout_s = 0.25;
+  /// Floating base: place each reference stream where the robot stands. When a stream
+  /// starts (or follows a stale hold), the horizontal rigid motion (x, y and yaw about
+  /// world z) that puts the stream's first base pose over the filter's base (the measured
+  /// one when fresh) is applied to every frame of that stream: a motion captured anywhere
+  /// in a capture volume starts under the robot instead of metres away (which trips the
+  /// filter's base-error guard every tick). Heights, tilt, joints and the base-frame
+  /// velocities are unchanged. false: the frames are in the robot's world frame already.
+  bool align_to_robot = true;
+  /// Soft start of a stream (s): the difference between where the robot is when a stream
+  /// starts (or follows a stale hold) and the stream's first frame, q_robot ⊖ q_first,
+  /// is added to the stream's frames and faded out over this time (quintic, with its
+  /// velocity and acceleration), so that the reference starts at the robot's posture
+  /// instead of stepping to the stream's (a captured walk starts with an elbow 0.6–1.7 rad
+  /// from the standing pose). 0: no fade.
+  double stream_blend_s = 1.0;
   /// The reference is played this far (s) behind the newest received frame's time.
   double reference_delay_s = 0.05;
   /// Start each tick from the measured robot state when one is fresh.
@@ -53,6 +71,8 @@ struct Counters {
 class RealtimeFilter {
  public:
   /// Holds @p hold_posture (a reference frame of the model) until the first frame arrives.
+  /// Throws std::invalid_argument on a negative or non-finite stream_blend_s or
+  /// reference_delay_s (and as MessageStream on bad stream options).
   RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,
                  const RealtimeOptions& options, const ReferenceFrame& hold_posture,
                  const QpSolverFactory& qp_solver = {});
@@ -60,9 +80,11 @@ class RealtimeFilter {
   /// A validated reference frame; frame.time_s is on the sender's clock (s), @p now_s
   /// the local clock at reception, @p sequence the sender's frame number (-1: none).
   /// Returns false (counted as rejected; referenceStream().lastRejection() says why) when
-  /// the frame is off the followed stream. A frame that starts a new stream (a restarted
+  /// the frame is off the followed stream, and (counted, before the stream policy) when its
+  /// sizes are not the model's or it is not finite. A frame that starts a new stream (a restarted
   /// sender, a jumped clock, after silence) resets the reference history and the clock
-  /// offset. An accepted frame also enters the filter's preview
+  /// offset, and (RealtimeOptions::align_to_robot) places the stream under the robot. With
+  /// RealtimeOptions::balance_preview an accepted frame also enters the filter's preview
   /// (DynamicsFilter::previewFrame): the reference delay is the balance layer's look-ahead.
   /// No allocation.
   bool addReference(const ReferenceFrame& frame, double now_s, std::int64_t sequence = -1);
@@ -81,6 +103,12 @@ class RealtimeFilter {
   std::uint32_t status() const { return status_; }
   /// Torques to publish after tick(): the filter's τ_J clamped to ±tau_max (dim nj).
   const Eigen::VectorXd& command() const { return command_; }
+  /// The horizontal placement of the followed stream (RealtimeOptions::align_to_robot):
+  /// world-from-stream, a rotation about z and a translation in x, y (identity without).
+  const Eigen::Isometry3d& streamPlacement() const { return X_WS_; }
+  /// The followed stream's soft-start offset q_robot ⊖ q_first (nv, zero without a blend;
+  /// RealtimeOptions::stream_blend_s), faded out over the stream's first stream_blend_s.
+  const Eigen::VectorXd& streamOffset() const { return blend_offset_; }
   /// The reference sample the last tick used (its time on the sender's clock).
   const ReferenceFrame& lastReference() const { return sample_; }
   const Counters& counters() const { return counters_; }
@@ -96,9 +124,14 @@ class RealtimeFilter {
   DynamicsFilter filter_;
   ReferenceBuffer buffer_;
   MessageStream references_, states_;
-  ReferenceFrame hold_, sample_;
+  ReferenceFrame hold_, sample_, placed_;
+  Eigen::Isometry3d X_WS_ = Eigen::Isometry3d::Identity();
+  Eigen::VectorXd blend_offset_;  // q_robot ⊖ q_first of the stream (nv), faded out
   Eigen::VectorXd command_, measured_q_, measured_v_;
   double clock_offset_s_ = 0.0;  // local − sender
+  double stream_start_s_ = 0.0;  // the followed stream's first frame (sender's clock)
+  double play_s_ = 0.0;          // the sampled time (sender's clock)
+  double last_tick_s_ = 0.0;     // local time of the previous tick
   double last_frame_local_s_ = -1e300;
   double measured_local_s_ = -1e300;
   bool stale_ = true;

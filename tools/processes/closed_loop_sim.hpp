@@ -1,0 +1,59 @@
+#pragma once
+// The LCM closed loop (dynfilter --mode qp --use-measured-state, dynfilter-sim
+// --servo-error-rad 0, dynfilter-replay) in one process and deterministic: the transport
+// is replaced by a schedule. Used by dynfilter-closed-loop and tests/realtime.
+//
+// Timeline (local clock = the sender's, 1 ms ticks): the filter holds the standing pose;
+// the robot (ODE's or DART's engine, robot_engine.hpp) starts standing there; from
+// replay_start_s the player sends frames at the clip's rate, stamped when sent; a sender
+// that is descheduled (gap_s every gap_every_s) skips frames as dynfilter-replay's ticker
+// does. Every tick: frames received so far enter the filter, then the robot's state, then
+// the filter ticks and the robot applies the command for one step (the next state answers
+// it), as over LCM.
+#include <array>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "dynfilter/core/filter_options.hpp"
+#include "dynfilter/realtime/realtime_filter.hpp"
+#include "dynfilter/realtime/replay_player.hpp"
+#include "dynfilter/urdf/robot_description.hpp"
+
+namespace dynfilter::processes {
+
+struct ClosedLoopSetup {
+  std::string robot_engine = "ode";  ///< "ode" or "dart" (the plan runs on DART)
+  FilterOptions filter;              ///< mode etc. (the dynfilter process: its config)
+  realtime::RealtimeOptions realtime;  ///< use_measured_state is set
+  realtime::ReplayOptions replay;
+  double replay_start_s = 0.5;  ///< local time of the first frame sent
+  double seconds = 4.0;         ///< simulated after the replay starts
+  /// The sender is descheduled for gap_s every gap_every_s from gap_first_s after the
+  /// replay starts (0: never).
+  double gap_every_s = 0.0, gap_s = 0.0, gap_first_s = 0.0;
+  /// Base height (m) below which the robot counts as fallen.
+  double fallen_below_m = 0.5;
+};
+
+struct ClosedLoopResult {
+  int ticks = 0;
+  double min_base_z_m = 1e9, min_base_z_time_s = 0.0;
+  double max_tilt_rad = 0.0;     ///< base tilt from upright (rad)
+  double fell_at_s = -1.0;       ///< first time (s after the replay start) below fallen_below_m
+  std::uint64_t reseeds = 0;
+  /// Re-seeding ticks by ReseedReason (index = the enum's value, 0 unused).
+  std::array<std::uint64_t, 7> reseed_ticks_by_reason{};
+  std::uint32_t status_union = 0;
+  std::uint64_t frames_sent = 0;
+};
+
+/// Runs the loop. @p log (may be null) gets one line a tick: time (s, local), base z (m),
+/// tilt (rad), stale, reference time (s, sender), status, reseed reason, worst joint and
+/// its tracking error (rad), and with the balance layer dcm, dcm_desired, cop_command
+/// (x y each, m), c̈_d (x y z, m/s²), preview samples. Throws on a bad setup.
+ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot, const ClosedLoopSetup& setup,
+                               const std::vector<realtime::Clip>& clips, std::FILE* log = nullptr);
+
+}  // namespace dynfilter::processes
