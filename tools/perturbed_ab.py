@@ -7,9 +7,9 @@
 The counts of tools/balance_matrix.py (relaxed ticks, re-seeding ticks) and the joint RMS
 are chaotic in the reference: Gaussian noise of 1e-6 (rad, m) on every joint and base
 position sample moves the CMU walk's relaxed ticks anywhere between 30 and 310 with the
-same build (48 references). One run per build says nothing about a change; this runs each case with seed 0
-(the reference as retargeted) and seeds 1..N−1 (noise added, base quaternion untouched)
-through both builds and prints per build the median, mean and range, and the paired
+same build (48 references). One run per build says nothing about a change; this runs each
+case with seed 0 (the reference as retargeted) and seeds 1..N−1 (noise added, base
+quaternion untouched) through both builds and prints per build the median, mean and range, and the paired
 differences (second build − first, same seed) with their standard error.
 """
 import argparse
