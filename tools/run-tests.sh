@@ -46,7 +46,7 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E "$(printf '%s|' \
     '_NOT_BUILT$' '^LcmProcesses\.' '^soak' '^paper_results' '^plot_lcm_log$' '^exported_package' \
     '^lcm_python_types$' '^lcm_spy_' '^human_figure_is_regenerated' '^core_include_guard' \
-    '^examples_build' '^python_' \
+    '^examples_build' '^python_' '^balance_matrix_' \
     | sed 's/|$//')"
   unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
 fi
