@@ -343,19 +343,24 @@ TEST(LcmProcesses, BadReferenceFramesAreRejectedAndTheFilterKeepsPublishing) {
 }  // namespace dynfilter
 
 #include "dynfilter/backends/make_model.hpp"
+#include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
 
 namespace dynfilter {
 namespace {
 
 // dynfilter-replay streams a BVH capture retargeted on the fly: every frame that arrives
-// is a valid reference for the model, and the stream starts where the retargeted clip does.
+// is a valid reference for the model, and the stream starts where the retargeted and
+// cleaned-up clip does.
 TEST(LcmProcesses, ReplayStreamsABvhCapture) {
   auto model = loadModel("dart", test::humanFigurePath());
   const ModelInfo& info = model->info();
   const std::string bvh = test::sourcePath("data/mocap/cmu/131_01_start_walk_stop.bvh");
   const std::string mapping = test::sourcePath("data/mocap/cmu/mappings/131_01.yaml");
-  const auto expected = io::retargetBvhFile(bvh, io::readRetargetMapping(mapping), *model);
+  const io::RetargetMapping retarget_mapping = io::readRetargetMapping(mapping);
+  // The replay streams what dynfilter-bvh2ref writes: retargeted, then cleaned up.
+  const auto expected = io::cleanupReference(io::retargetBvhFile(bvh, retarget_mapping, *model).motion,
+                                             *model, retarget_mapping.cleanup);
 
   const std::string url = uniqueUrl();
   lcm::LCM lcm(url);
@@ -381,7 +386,12 @@ TEST(LcmProcesses, ReplayStreamsABvhCapture) {
     while (!stop) lcm.handleTimeout(20);
   });
   Child replay({bin("dynfilter-replay"), bvh, "--mapping", mapping, "--duration-s", "1.5"}, url);
-  std::this_thread::sleep_for(std::chrono::milliseconds(3500));
+  // It retargets and cleans the clip up (seconds), then streams 1.5 s and exits by itself.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (replay.running() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the last frames in flight
+  EXPECT_FALSE(replay.running()) << "dynfilter-replay did not finish its 1.5 s within a minute";
   EXPECT_EQ(replay.stop(), 0);
   stop = true;
   receive.join();

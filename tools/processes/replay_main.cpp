@@ -23,6 +23,7 @@
 
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/io/reference_motion.hpp"
+#include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/lcm/messages.hpp"
 #include "dynfilter/realtime/replay_player.hpp"
@@ -48,6 +49,9 @@ int main(int argc, char** argv) {
   double rate_hz = 0.0, duration_s = 0.0;
   app.add_option("clips", files, "reference motion CSV files or BVH captures")->required();
   app.add_option("--mapping", mappings, "retargeting mapping YAML, one per .bvh clip, in order");
+  bool no_cleanup = false;
+  app.add_flag("--no-cleanup", no_cleanup,
+               "stream a .bvh clip as retargeted, without dynfilter-bvh2ref's reference clean-up");
   app.add_option("-m,--model", model_path, "URDF model the files are for");
   dynfilter::tools::ModelCli model_cli;
   dynfilter::tools::addModelOptions(app, model_cli);
@@ -73,7 +77,13 @@ int main(int argc, char** argv) {
         const auto mapping = io::readRetargetMapping(mappings[next_mapping++]);
         const auto retargeted = io::retargetBvhFile(f, mapping, *model);
         std::fprintf(stderr, "%s", io::formatLimitReport(retargeted).c_str());
-        clips.push_back({f, retargeted.motion.frames});
+        if (no_cleanup) {
+          clips.push_back({f, retargeted.motion.frames});
+        } else {  // the same reference as dynfilter-bvh2ref writes
+          const io::CleanupResult cleaned = io::cleanupReference(retargeted.motion, *model, mapping.cleanup);
+          std::fprintf(stderr, "%s", io::formatCleanupReport(cleaned.report).c_str());
+          clips.push_back({f, cleaned.motion.frames});
+        }
       } else {
         clips.push_back({f, io::readReferenceMotion(f, info).frames});
       }
