@@ -21,10 +21,14 @@ packages=(
   nlohmann-json3-dev libcli11-dev libyaml-cpp-dev
   clang libclang-rt-14-dev   # fuzz/: clang 14 with libFuzzer and the sanitizer runtimes
 )
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
+# Prints those of the given Debian packages that are not installed, one a line.
+not_installed() {
+  local p
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || echo "$p"
+  done
+}
+mapfile -t missing < <(not_installed "${packages[@]}")
 if [ ${#missing[@]} -gt 0 ]; then
   echo "installing: ${missing[*]}"
   $SUDO apt-get update -qq
@@ -91,10 +95,7 @@ fi
 # for the native module; pytest (its ctest suites), PyYAML (manifests), tqdm (progress) and
 # Ray (dynfilter.batch --ray-address) in the venv. Only the Python package needs them: warn, go on.
 python_packages=(pybind11-dev python3-dev)
-missing=()
-for p in "${python_packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
+mapfile -t missing < <(not_installed "${python_packages[@]}")
 if [ ${#missing[@]} -gt 0 ]; then
   echo "installing: ${missing[*]}"
   $SUDO apt-get update -qq
