@@ -155,15 +155,7 @@ def main():
             print(name, " ".join(f"{k}={m.get(k)}" for k, _, _ in COLUMNS), flush=True)
     L = ["| case | " + " | ".join(h for _, h, _ in COLUMNS) + " |", "|---|" + "---:|" * len(COLUMNS)]
     for name in names:
-        m = results[name]
-        cells = []
-        for k, _, f in COLUMNS:
-            v = m.get(k, "–")
-            try:
-                cells.append(f.format(v))
-            except (ValueError, TypeError):
-                cells.append(str(v))
-        L.append(f"| {name} | " + " | ".join(cells) + " |")
+        L.append(f"| {name} | " + " | ".join(pr.fmt(results[name], k, f) for k, _, f in COLUMNS) + " |")
     total = sum(int(results[n]["reseed_ticks"]) for n in names)
     L.append(f"\nre-seeding ticks over all cases: {total}")
     text = "\n".join(L) + "\n"
