@@ -2,7 +2,8 @@
 """Issue 13's check matrix: the CMU clips and their variants in one mode and configuration.
 
     build/venv/bin/python tools/balance_matrix.py [--out build/balance_matrix] [--mode qp]
-        [--config c.yaml] [--only walk,jump] [--jobs 2] [--markdown table.md]
+        [--config c.yaml] [--cleanup '{balance: false}'] [--only walk,jump] [--jobs 2]
+        [--markdown table.md]
 
 Cases: walk, jump, kick (level ground, DART), the walk with the ODE backend, played 0.8× and
 1.25× as fast (the reference's time column scaled), on a 10° downhill and a 5° uphill slope
@@ -95,8 +96,13 @@ def run_case(name, args, build, out):
         bvh_path = out / f"{name}.bvh"
         mirror_bvh(pr.CMU / bvh, bvh_path)
     ref = out / f"{name}_reference.csv"
+    mapping_path = pr.CMU / "mappings" / mapping
+    if args.cleanup:
+        mapping_path = out / f"{name}_mapping.yaml"
+        mapping_path.write_text((pr.CMU / "mappings" / mapping).read_text() + f"\ncleanup: {args.cleanup}\n")
     subprocess.run([str(build / "tools/bvh2ref/dynfilter-bvh2ref"), str(bvh_path), "--mapping",
-                    str(pr.CMU / "mappings" / mapping), "-o", str(ref)], check=True, capture_output=True)
+                    str(mapping_path), "-o", str(ref), "--report", str(out / f"{name}_bvh2ref.txt")],
+                   check=True, capture_output=True)
     if speed != 1.0:
         scale_time(ref, ref, speed)
     fil = out / f"{name}_{args.mode}.csv"
@@ -140,6 +146,8 @@ def main():
     ap.add_argument("--build-dir", default=str(pr.ROOT / "build"))
     ap.add_argument("--mode", default="qp", choices=["qp", "paper"])
     ap.add_argument("--config")
+    ap.add_argument("--cleanup", help="clean-up options for every clip, YAML flow map, e.g. "
+                    "'{balance: false}' (the mapping's cleanup: section)")
     ap.add_argument("--only", default=",".join(CASES))
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--markdown")

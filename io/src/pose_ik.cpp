@@ -23,7 +23,8 @@ namespace {
 // The objective at the model's current state (q given for the posture term).
 double ikCost(const IDynamicsModel& model, const std::vector<IkTarget>& targets,
               const Eigen::VectorXd& q, const Eigen::VectorXd& q_posture,
-              const Eigen::VectorXd& posture_weights, Eigen::VectorXd& e_q) {
+              const Eigen::VectorXd& posture_weights, const Eigen::VectorXd* q_previous,
+              double continuity_weight, Eigen::VectorXd& e_q) {
   double cost = 0.0;
   for (const IkTarget& t : targets) {
     const Eigen::Isometry3d X = model.bodyPose(t.body);
@@ -35,13 +36,18 @@ double ikCost(const IDynamicsModel& model, const std::vector<IkTarget>& targets,
   }
   differenceConfiguration(model.info().floating_base, q, q_posture, e_q);
   cost += (posture_weights.array() * e_q.array()).square().sum();
+  if (q_previous) {
+    differenceConfiguration(model.info().floating_base, q, *q_previous, e_q);
+    cost += continuity_weight * continuity_weight * e_q.squaredNorm();
+  }
   return cost;
 }
 }  // namespace
 
 IkResult solvePoseIk(IDynamicsModel& model, const std::vector<IkTarget>& targets,
                      const Eigen::VectorXd& q_posture, const Eigen::VectorXd& posture_weights,
-                     const IkOptions& options, Eigen::VectorXd& q) {
+                     const IkOptions& options, Eigen::VectorXd& q,
+                     const Eigen::VectorXd* q_previous) {
   const ModelInfo& info = model.info();
   const int nv = info.nv;
   for (int j = 0; j < info.nj; ++j) {
@@ -78,6 +84,14 @@ IkResult solvePoseIk(IDynamicsModel& model, const std::vector<IkTarget>& targets
       const double w2 = posture_weights[c] * posture_weights[c];
       H(c, c) += w2 + options.damping;
       g[c] += w2 * e_q[c];
+    }
+    if (q_previous && options.continuity_weight > 0) {
+      differenceConfiguration(info.floating_base, q, *q_previous, e_q);
+      const double w2 = options.continuity_weight * options.continuity_weight;
+      H.diagonal().array() += w2;
+      g += w2 * e_q;
+    } else {
+      q_previous = nullptr;
     }
     lo.setConstant(-1e300);
     hi.setConstant(1e300);
@@ -119,7 +133,7 @@ IkResult solvePoseIk(IDynamicsModel& model, const std::vector<IkTarget>& targets
     double step = dv.lpNorm<Eigen::Infinity>();
     if (step > kMaxStep) dv *= kMaxStep / step;  // inside the bounds too: lo ≤ 0 ≤ hi
     // Backtracking: halve the step until the objective does not increase.
-    const double cost0 = ikCost(model, targets, q, q_posture, posture_weights, e_q);
+    const double cost0 = ikCost(model, targets, q, q_posture, posture_weights, q_previous, options.continuity_weight, e_q);
     Eigen::VectorXd q_try(q.size());
     for (int halving = 0; halving < 8; ++halving) {
       integrateConfiguration(info.floating_base, q, dv, 1.0, q_try);
@@ -128,7 +142,8 @@ IkResult solvePoseIk(IDynamicsModel& model, const std::vector<IkTarget>& targets
         q_try[qi] = std::clamp(q_try[qi], info.q_lower[j], info.q_upper[j]);
       }
       model.setState(q_try, v0);
-      if (ikCost(model, targets, q_try, q_posture, posture_weights, e_q) <= cost0 || halving == 7) break;
+      if (ikCost(model, targets, q_try, q_posture, posture_weights, q_previous,
+                 options.continuity_weight, e_q) <= cost0 || halving == 7) break;
       dv *= 0.5;
     }
     step = dv.lpNorm<Eigen::Infinity>();

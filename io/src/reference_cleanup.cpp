@@ -201,6 +201,7 @@ void ReferenceCleanupOptions::validate() const {
   require(std::isfinite(base_weight) && base_weight >= 0, "base_weight: must be >= 0");
   require(std::isfinite(posture_weight) && posture_weight > 0, "posture_weight: must be > 0");
   require(std::isfinite(leg_weight) && leg_weight > 0, "leg_weight: must be > 0");
+  require(std::isfinite(continuity_weight) && continuity_weight >= 0, "continuity_weight: must be >= 0");
   require(smoothing_window >= 3 && smoothing_window % 2 == 1, "smoothing_window: must be odd and >= 3");
 }
 
@@ -297,7 +298,13 @@ CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& mo
     for (int k = 0; k < n; ++k) st[static_cast<std::size_t>(k)] = sched.stance[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)];
     std::vector<double> w(static_cast<std::size_t>(n), 0.0);
     std::vector<Eigen::Isometry3d> stance_pose(static_cast<std::size_t>(n));
-    for (const auto& [b, e] : runsOf(st, 1)) {
+    const std::vector<std::pair<int, int>> runs = runsOf(st, 1);
+    for (std::size_t r = 0; r < runs.size(); ++r) {
+      const auto [b, e] = runs[r];
+      // Ramps in and out span at most half the swing gap to the neighbouring runs, so two
+      // runs never both pull on a frame and the target stays continuous.
+      const double ramp_in = r > 0 ? std::min(blend + 1.0, 0.5 * (b - runs[r - 1].second + 1)) : blend + 1.0;
+      const double ramp_out = r + 1 < runs.size() ? std::min(blend + 1.0, 0.5 * (runs[r + 1].first - e + 1)) : blend + 1.0;
       Eigen::Vector3d c = Eigen::Vector3d::Zero();
       Eigen::Vector3d xs = Eigen::Vector3d::Zero();
       for (int k = b; k < e; ++k) {
@@ -311,8 +318,8 @@ CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& mo
       const Eigen::Matrix3d R_heading = Eigen::Quaterniond::FromTwoVectors(x0, x_ref_mean).toRotationMatrix();
       const Eigen::Isometry3d P = flatPose(f, R_heading * f.R_flat, c);
       for (int k = std::max(0, b - blend); k < std::min(n, e + blend); ++k) {
-        const double wk = k < b ? smoothstep(1.0 - static_cast<double>(b - k) / (blend + 1))
-                          : k >= e ? smoothstep(1.0 - static_cast<double>(k - e + 1) / (blend + 1))
+        const double wk = k < b ? smoothstep(1.0 - static_cast<double>(b - k) / ramp_in)
+                          : k >= e ? smoothstep(1.0 - static_cast<double>(k - e + 1) / ramp_out)
                                    : 1.0;
         if (wk > w[static_cast<std::size_t>(k)]) {
           w[static_cast<std::size_t>(k)] = wk;
@@ -352,8 +359,9 @@ CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& mo
   IkOptions ik;
   ik.max_iterations = 100;
   ik.tolerance = 1e-9;
+  ik.continuity_weight = options.continuity_weight;
   result.motion = motion;
-  Eigen::VectorXd q_prev;
+  Eigen::VectorXd q_prev, dv_ref(info.nv);
   for (int k = 0; k < n; ++k) {
     const Eigen::VectorXd& q_ref = motion.frames[static_cast<std::size_t>(k)].q;
     for (int i = 0; i < nf; ++i) {
@@ -361,9 +369,16 @@ CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& mo
       targets[static_cast<std::size_t>(i)].p_WP = X * setup.feet[static_cast<std::size_t>(i)].centre;
       targets[static_cast<std::size_t>(i)].R_WB = X.linear();
     }
-    // Warm start from the previous frame's answer (continuous, inside the limits).
-    Eigen::VectorXd q = k > 0 ? q_prev : q_ref;
-    solvePoseIk(model, targets, q_ref, weights, ik, q);
+    // Start from the previous frame's answer moved by the reference's own change, and hold
+    // the answer near it (continuity): the clip follows one branch of the IK's solutions
+    // instead of jumping between local minima where a foot target is hard to reach.
+    Eigen::VectorXd q = q_ref;
+    if (k > 0) {
+      differenceConfiguration(true, motion.frames[static_cast<std::size_t>(k - 1)].q, q_ref, dv_ref);
+      integrateConfiguration(true, q_prev, dv_ref, 1.0, q);
+    }
+    const Eigen::VectorXd q_predicted = q;
+    solvePoseIk(model, targets, q_ref, weights, ik, q, k > 0 ? &q_predicted : nullptr);
     Eigen::Quaterniond a(q_ref[3], q_ref[4], q_ref[5], q_ref[6]), b(q[3], q[4], q[5], q[6]);
     if (a.dot(b) < 0) q.segment<4>(3) *= -1.0;
     result.motion.frames[static_cast<std::size_t>(k)].q = q;

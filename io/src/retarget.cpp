@@ -229,7 +229,7 @@ class MappingParser {
                 ReferenceCleanupOptions& c = m.cleanup;
                 readMap(v, "cleanup",
                         {"feet", "contact_height", "contact_speed", "min_phase_s", "blend_s",
-                         "base_weight", "posture_weight", "leg_weight"},
+                         "base_weight", "posture_weight", "leg_weight", "continuity_weight"},
                         [&](const std::string& ck, const YAML::Node& cv) {
                   const std::string key = "cleanup." + ck;
                   if (ck == "feet") c.feet = names(cv, key);
@@ -240,6 +240,7 @@ class MappingParser {
                   if (ck == "base_weight") c.base_weight = weight(cv, key);
                   if (ck == "posture_weight") c.posture_weight = weight(cv, key);
                   if (ck == "leg_weight") c.leg_weight = weight(cv, key);
+                  if (ck == "continuity_weight") c.continuity_weight = number(cv, key);
                   try {
                     c.validate();
                   } catch (const std::invalid_argument& e) {

@@ -15,6 +15,7 @@
 
 #include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/io/pose_ik.hpp"
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
@@ -310,6 +311,32 @@ TEST(KinematicTree, ChoosesTheTrunkByStructure) {
 // A standing reference whose feet skate 6 cm forward and sink 1.5 cm over the clip, with
 // an elbow beyond its limit: the clean-up holds both stance feet still on the ground and
 // brings every joint inside its limits.
+// With no targets, PoseIk's answer for a joint away from its limits minimises
+// w_p² (q − q_p)² + w_c² (q − q_prev)²: q = (w_p² q_p + w_c² q_prev) / (w_p² + w_c²).
+TEST(PoseIk, ContinuityTermIsTheWeightedMeanOfPostureAndPrevious) {
+  auto model = mini();
+  const ModelInfo& info = model->info();
+  const int j = info.findJoint("genu_l");
+  const int qi = info.configurationIndex(j), vi = info.velocityIndex(j);
+  ASSERT_LT(info.q_lower[j], 0.2);
+  ASSERT_GT(info.q_upper[j], 0.6);
+  Eigen::VectorXd q_posture = info.neutralConfiguration(), q_previous = q_posture;
+  q_posture[qi] = 0.2;
+  q_previous[qi] = 0.6;
+  Eigen::VectorXd weights = Eigen::VectorXd::Ones(info.nv);
+  weights[vi] = 0.5;
+  IkOptions options;
+  options.continuity_weight = 2.0;
+  options.max_iterations = 200;
+  Eigen::VectorXd q = q_posture;
+  EXPECT_TRUE(solvePoseIk(*model, {}, q_posture, weights, options, q, &q_previous).converged);
+  EXPECT_NEAR(q[qi], (0.25 * 0.2 + 4.0 * 0.6) / 4.25, 1e-6);
+  // Without a previous answer the term is off.
+  q = q_previous;
+  solvePoseIk(*model, {}, q_posture, weights, options, q);
+  EXPECT_NEAR(q[qi], 0.2, 1e-6);
+}
+
 TEST(ReferenceCleanup, StanceFeetStayStillOnTheGroundAndJointsInsideLimits) {
   auto model = mini();
   const ModelInfo& info = model->info();

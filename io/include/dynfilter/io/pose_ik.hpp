@@ -39,6 +39,10 @@ struct IkOptions {
   int max_iterations = 50;
   double tolerance = 1e-7;   ///< on ‖dv‖∞ (rad, m)
   double damping = 1e-6;     ///< λ
+  /// w_c (1/rad, 1/m): with a previous answer given, adds w_c² ‖q ⊖ q_previous‖² to the
+  /// objective, so that a sequence of solves follows one branch of the solution instead of
+  /// jumping between local minima from one frame to the next.
+  double continuity_weight = 0.0;
 };
 
 struct IkResult {
@@ -47,11 +51,13 @@ struct IkResult {
 };
 
 /// Solves in place: @p q (dim nq) is the start and the answer; it is first clamped into
-/// the joint limits. @p q_posture dim nq, @p posture_weights dim nv (per v coordinate).
-/// Changes the model's state.
+/// the joint limits. @p q_posture dim nq, @p posture_weights dim nv (per v coordinate);
+/// @p q_previous (dim nq, or null) is the configuration IkOptions::continuity_weight holds
+/// the answer near. Changes the model's state.
 IkResult solvePoseIk(IDynamicsModel& model, const std::vector<IkTarget>& targets,
                      const Eigen::VectorXd& q_posture, const Eigen::VectorXd& posture_weights,
-                     const IkOptions& options, Eigen::VectorXd& q);
+                     const IkOptions& options, Eigen::VectorXd& q,
+                     const Eigen::VectorXd* q_previous = nullptr);
 
 /// Errors of a target at the model's current state: position (m) and orientation (rad).
 void ikTargetError(const IDynamicsModel& model, const IkTarget& target, double& position_m,

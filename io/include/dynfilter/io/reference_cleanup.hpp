@@ -18,12 +18,15 @@
 ///  - Stance pose of a run: the foot flat (its neutral-stance orientation turned by the
 ///    run's mean heading about the ground normal), its sole centre at the run's mean
 ///    horizontal position, the sole on the ground. Over blend_s before and after the run,
-///    the foot's target moves smoothly between the reference pose and the stance pose.
+///    the foot's target moves smoothly between the reference pose and the stance pose
+///    (over at most half the swing between two runs, so the target stays continuous).
 ///  - Per frame, PoseIk solves for the whole configuration: the feet at their targets
 ///    (stance pose or blend; swing feet at the reference pose), every other coordinate
 ///    held at the reference (base weight base_weight, joints posture_weight, a lower weight
 ///    for the joints between the base and a foot so that the legs take up the change), all
-///    within the joint limits. Velocities and accelerations are estimated again.
+///    within the joint limits; a continuity term (continuity_weight) holds each frame's
+///    change near the reference's own change, so the answer follows one branch over the
+///    clip. Velocities and accelerations are estimated again.
 ///  - Report: per joint max and RMS change, overall RMS; per foot the stance skate (largest
 ///    horizontal distance of the sole centre from its position at the start of the stance
 ///    run) and the largest penetration of a sole point, before and after; limit excess
@@ -46,6 +49,9 @@ struct ReferenceCleanupOptions {
   double base_weight = 1.0;       ///< IK weight holding the base at the reference
   double posture_weight = 1.0;    ///< IK weight holding joints (not on a leg) at the reference
   double leg_weight = 0.05;       ///< IK weight holding the leg joints at the reference
+  /// IK weight holding each frame's change at the reference's change (PoseIk's continuity
+  /// term, about the previous frame's answer moved by the reference's own change); 0: off
+  double continuity_weight = 1.0;
   int smoothing_window = 7;       ///< estimateDerivatives window (odd, ≥ 3)
 
   /// @throws std::invalid_argument naming the option on a bad value.
