@@ -6,69 +6,19 @@
 #include <stdexcept>
 
 #include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/core/polygon.hpp"
 
 namespace dynfilter {
 namespace {
+
+using polygon::clampToHull;
+using polygon::convexHull;
 
 constexpr double kGravity = 9.81;  // m/s², along −z (the models' default gravity)
 constexpr double kMinHeight = 0.2;  // m: the LIPM height never below this
 constexpr double kInfeasibleAfterS = 0.25;  // s the reference must look infeasible
 constexpr double kReferenceFlatRad = 0.1;  // a reference sole this close to its surface is flat
-
-double cross2(const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
-}
-
-// Convex hull (counter-clockwise) of points[0, n) into hull; returns its size (≤ capacity).
-template <std::size_t N, std::size_t M>
-int convexHull(std::array<Eigen::Vector2d, N>& points, int n, std::array<Eigen::Vector2d, M>& hull) {
-  if (n <= 0) return 0;
-  std::sort(points.begin(), points.begin() + n, [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
-  });
-  if (n == 1) {
-    hull[0] = points[0];
-    return 1;
-  }
-  std::array<Eigen::Vector2d, 2 * N> h;
-  int k = 0;
-  for (int i = 0; i < n; ++i) {
-    while (k >= 2 && cross2(h[k - 2], h[k - 1], points[i]) <= 1e-12) --k;
-    h[k++] = points[i];
-  }
-  for (int i = n - 2, t = k + 1; i >= 0; --i) {
-    while (k >= t && cross2(h[k - 2], h[k - 1], points[i]) <= 1e-12) --k;
-    h[k++] = points[i];
-  }
-  const int size = std::min<int>(std::max(k - 1, 1), static_cast<int>(M));
-  for (int i = 0; i < size; ++i) hull[i] = h[i];
-  return size;
-}
-
-// The point of the convex polygon hull[0, n) nearest to p (p itself when inside).
-template <std::size_t M>
-Eigen::Vector2d clampToHull(const Eigen::Vector2d& p, const std::array<Eigen::Vector2d, M>& hull, int n) {
-  if (n <= 0) return p;
-  if (n == 1) return hull[0];
-  bool inside = n >= 3;
-  for (int i = 0; i < n && inside; ++i)
-    inside = cross2(hull[i], hull[(i + 1) % n], p) >= 0.0;
-  if (inside) return p;
-  Eigen::Vector2d best = hull[0];
-  double best_d = (p - best).squaredNorm();
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector2d a = hull[i], e = hull[(i + 1) % n] - a;
-    const double s = std::clamp(e.dot(p - a) / std::max(e.squaredNorm(), 1e-18), 0.0, 1.0);
-    const Eigen::Vector2d x = a + s * e;
-    const double d = (p - x).squaredNorm();
-    if (d < best_d) {
-      best_d = d;
-      best = x;
-    }
-  }
-  return best;
-}
-
+constexpr double kRollLookaheadS = 0.25;   // a face rolls only when the reference lifts it this soon
 
 // A unit vector orthogonal to the unit vector n, preferring the projection of @p hint.
 Eigen::Vector3d tangentFrom(const Eigen::Vector3d& n, const Eigen::Vector3d& hint) {
@@ -237,6 +187,52 @@ int BalanceLayer::flattenLandings(const IDynamicsModel& model, VirtualLinkSet& l
   return changed;
 }
 
+int BalanceLayer::rollSoles(VirtualLinkSet& links) const {
+  if (options_.roll_tilt_rad <= 0.0) return 0;
+  int changed = 0;
+  for (int i = 0; i < links.size(); ++i) {
+    const VirtualLink& link = links[i];
+    if (link.object != kGroundObject) continue;
+    const auto it = std::find(sole_bodies_.begin(), sole_bodies_.end(), link.body);
+    if (it == sole_bodies_.end()) continue;
+    const std::size_t s = static_cast<std::size_t>(it - sole_bodies_.begin());
+    const Eigen::Matrix3d& R_WA = link.X_WA.linear();
+    const Eigen::Vector3d n = R_WA.col(2);
+    const Eigen::Vector3d n_ref = sole_refs_[s].R * soles_[s].n_B;
+    const double tilt = std::acos(std::clamp(n_ref.dot(n), -1.0, 1.0));
+    if (tilt < 0.5 * options_.roll_tilt_rad) {
+      if (link.rolling) links.setRolling(i, false);
+      continue;
+    }
+    if (tilt <= options_.roll_tilt_rad) continue;
+    if (link.kind == ContactKind::kFace && (link.body >= 64 || ((lifting_soon_ >> link.body) & 1u) == 0)) continue;
+    if (link.kind != ContactKind::kFace) {
+      if (!link.rolling) links.setRolling(i, true);
+      continue;
+    }
+    // The edge the reference stays on: the side its sole normal leans to, in A's xy.
+    const double dx = n_ref.dot(R_WA.col(0)), dy = n_ref.dot(R_WA.col(1));
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();  // edge frame in A (and C)
+    double lo = 0.0, hi = 0.0;
+    if (std::fabs(dx) >= std::fabs(dy)) {
+      // Along A's y, at x = max (dx > 0) or min: the edge frame's x is A's y.
+      const double mid_y = 0.5 * (link.support_min.y() + link.support_max.y());
+      T.translation() = Eigen::Vector3d(dx > 0 ? link.support_max.x() : link.support_min.x(), mid_y, 0.0);
+      T.linear() << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+      lo = link.support_min.y() - mid_y;
+      hi = link.support_max.y() - mid_y;
+    } else {
+      const double mid_x = 0.5 * (link.support_min.x() + link.support_max.x());
+      T.translation() = Eigen::Vector3d(mid_x, dy > 0 ? link.support_max.y() : link.support_min.y(), 0.0);
+      lo = link.support_min.x() - mid_x;
+      hi = link.support_max.x() - mid_x;
+    }
+    links.makeRollingEdge(i, link.X_BC * T, link.X_WA * T, lo, hi);
+    ++changed;
+  }
+  return changed;
+}
+
 const BalanceLayer::Sample& BalanceLayer::at(int i) const {
   return ring_[static_cast<std::size_t>((head_ + i) % static_cast<int>(ring_.size()))];
 }
@@ -366,6 +362,9 @@ void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& referenc
   const double window_s = std::min(options_.preview_s, 14.0 / omega_);
   while (last < size_ && at(last).t <= t + window_s) ++last;
   state_.preview_samples = last - first;
+  // Bodies the reference lifts within kRollLookaheadS (push-off): only they roll.
+  lifting_soon_ = 0;
+  for (int i = first; i < size_ && at(i).t <= t + kRollLookaheadS; ++i) lifting_soon_ |= now_.stance & ~at(i).stance;
   if (last > first) {
     const Sample& end = at(last - 1);
     Eigen::Vector2d xi = end.c.head<2>() + end.cdot.head<2>() / omega_;
@@ -413,7 +412,7 @@ void BalanceLayer::addSoleCandidates(IDynamicsModel& model, const Eigen::Ref<con
                                      const VirtualLinkSet& links, ContactList& candidates) {
   bool any = false;
   for (int i = 0; i < links.size(); ++i)
-    any = any || (links[i].kind != ContactKind::kFace &&
+    any = any || (links[i].kind != ContactKind::kFace && !links[i].rolling &&
                   std::find(sole_bodies_.begin(), sole_bodies_.end(), links[i].body) != sole_bodies_.end());
   if (!any) return;
   const double margin = options_.sole_margin_m;
@@ -424,7 +423,7 @@ void BalanceLayer::addSoleCandidates(IDynamicsModel& model, const Eigen::Ref<con
   model.setState(q, v);
   for (int i = 0; i < links.size(); ++i) {
     const VirtualLink& link = links[i];
-    if (link.kind == ContactKind::kFace ||
+    if (link.kind == ContactKind::kFace || link.rolling ||
         std::find(sole_bodies_.begin(), sole_bodies_.end(), link.body) == sole_bodies_.end())
       continue;
     for (const ContactCandidate& c : candidates_) {
@@ -536,9 +535,11 @@ void BalanceLayer::buildTasks(const IDynamicsModel& model, const Eigen::Ref<cons
     }
     const Eigen::Isometry3d X_WB = model.bodyPose(body);
     const Eigen::Vector3d n_W = X_WB.linear() * soles_[s].n_B;
-    const Eigen::Vector3d n_ground = held->X_WA.linear().col(2);
-    const Eigen::Vector3d axis = n_W.cross(n_ground);
-    const double angle = std::atan2(axis.norm(), n_W.dot(n_ground));
+    // Flat on the ground; while rolling, tilted as the reference's sole is.
+    Eigen::Vector3d n_target = held->X_WA.linear().col(2);
+    if (held->rolling) n_target = sole_refs_[s].R * soles_[s].n_B;
+    const Eigen::Vector3d axis = n_W.cross(n_target);
+    const double angle = std::atan2(axis.norm(), n_W.dot(n_target));
     const Eigen::Vector3d error = axis.norm() > 1e-12 ? Eigen::Vector3d(axis.normalized() * angle)
                                                       : Eigen::Vector3d::Zero();
     model.pointJacobian(body, Eigen::Vector3d::Zero(), J_);

@@ -259,6 +259,7 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   if (balance_) balance_->addSoleCandidates(model_, q_, v_, links_, candidates_);
   int created = links_.update(model_, candidates_, status);
   if (balance_) created += balance_->flattenLandings(model_, links_);
+  if (balance_) created += balance_->rollSoles(links_);
   const int nc = links_.numRows();
   auto H_C = H_C_.topRows(nc);
   auto u_C = u_C_.head(nc);

@@ -73,6 +73,8 @@ void FilterOptions::validate() const {
   require(nonNegative(balance.sole_margin_m), "balance.sole_margin_m", "must be >= 0 m");
   require(nonNegative(balance.flat_landing_max_tilt_rad) && balance.flat_landing_max_tilt_rad < 1.5,
           "balance.flat_landing_max_tilt_rad", "must be in [0, 1.5) rad");
+  require(nonNegative(balance.roll_tilt_rad) && balance.roll_tilt_rad < 1.0, "balance.roll_tilt_rad",
+          "must be in [0, 1) rad");
   require(positive(balance.stance_height_m), "balance.stance_height_m", "must be > 0");
   require(positive(balance.stance_speed_mps), "balance.stance_speed_mps", "must be > 0");
   for (const SoleOptions& sole : balance.soles)

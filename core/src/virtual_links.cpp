@@ -10,6 +10,7 @@ namespace dynfilter {
 namespace {
 
 constexpr double kLiftedPairMaxDepth = 0.005;  // m
+constexpr double kRollingSinkDepth = 0.002;    // m: a rolling sole sinking deeper gets its face back
 
 // A unit vector orthogonal to n, preferring the projection of @p hint.
 Eigen::Vector3d tangentFrom(const Eigen::Vector3d& n, const Eigen::Vector3d& hint) {
@@ -189,6 +190,20 @@ void VirtualLinkSet::makeFace(int i, const Eigen::Isometry3d& X_BC, const Eigen:
   link.support_min = support_min;
   link.support_max = support_max;
   link.num_axes = constrainedAxes(link.kind, link.axes);
+  link.rolling = false;
+  link.created_this_tick = true;
+}
+
+void VirtualLinkSet::makeRollingEdge(int i, const Eigen::Isometry3d& X_BC, const Eigen::Isometry3d& X_WA,
+                                     double x_min, double x_max) {
+  VirtualLink& link = links_[static_cast<std::size_t>(i)];
+  link.kind = ContactKind::kEdge;
+  link.X_BC = X_BC;
+  link.X_WA = X_WA;
+  link.support_min = Eigen::Vector2d(x_min, 0.0);
+  link.support_max = Eigen::Vector2d(x_max, 0.0);
+  link.num_axes = constrainedAxes(link.kind, link.axes);
+  link.rolling = true;
   link.created_this_tick = true;
 }
 
@@ -234,7 +249,12 @@ int VirtualLinkSet::update(const IDynamicsModel& model, const ContactList& candi
     const int existing = findLink(body, object);
     if (existing >= 0) {
       VirtualLink& held = links_[static_cast<std::size_t>(existing)];
-      if (static_cast<int>(fresh.kind) > static_cast<int>(held.kind)) {  // upgrade
+      // A rolling sole keeps its edge unless the rest of the sole sinks into the surface.
+      bool sinks = false;
+      if (held.rolling)
+        for (const ContactCandidate& c : candidates)
+          sinks = sinks || (c.body == body && c.object == object && c.depth_m > kRollingSinkDepth);
+      if (static_cast<int>(fresh.kind) > static_cast<int>(held.kind) && (!held.rolling || sinks)) {  // upgrade
         held = fresh;
         ++created;
       }

@@ -200,7 +200,7 @@ class Parser {
             {"enabled", "com_weight", "dcm_gain", "height_kp", "height_kd",
              "angular_momentum_damping", "angular_momentum_weight", "preview_s",
              "preview_capacity", "stance_height_m", "stance_speed_mps", "sole_weight", "sole_kp",
-             "sole_kd", "sole_margin_m", "flat_landing_max_tilt_rad"},
+             "sole_kd", "sole_margin_m", "flat_landing_max_tilt_rad", "roll_tilt_rad"},
             [&](const std::string& k, const Entry& v) {
               if (k == "enabled") b.enabled = boolean(v);
               if (k == "com_weight") b.com_weight = number(v);
@@ -218,6 +218,7 @@ class Parser {
               if (k == "sole_kd") b.sole_kd = number(v);
               if (k == "sole_margin_m") b.sole_margin_m = number(v);
               if (k == "flat_landing_max_tilt_rad") b.flat_landing_max_tilt_rad = number(v);
+              if (k == "roll_tilt_rad") b.roll_tilt_rad = number(v);
             });
   }
 

@@ -10,6 +10,7 @@
 namespace dynfilter::io {
 namespace {
 constexpr double kMaxStep = 0.5;  // largest change of a coordinate per iteration (rad, m)
+constexpr double kMinLambda = 1e-6;  // Levenberg–Marquardt damping floor, relative to H's diagonal
 }  // namespace
 
 void ikTargetError(const IDynamicsModel& model, const IkTarget& target, double& position_m,
@@ -57,7 +58,8 @@ IkResult solvePoseIk(IDynamicsModel& model, const std::vector<IkTarget>& targets
   const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(nv);
   Matrix6Xd J(6, nv);
   Eigen::MatrixXd H(nv, nv);
-  Eigen::VectorXd g(nv), e_q(nv), dv(nv), lo(nv), hi(nv);
+  Eigen::VectorXd g(nv), e_q(nv), dv(nv), lo(nv), hi(nv), q_try(q.size());
+  double lambda = kMinLambda;
   IkResult result;
   for (int it = 0; it < options.max_iterations; ++it) {
     model.setState(q, v0);
@@ -85,13 +87,13 @@ IkResult solvePoseIk(IDynamicsModel& model, const std::vector<IkTarget>& targets
       H(c, c) += w2 + options.damping;
       g[c] += w2 * e_q[c];
     }
+    const Eigen::VectorXd* previous = nullptr;
     if (q_previous && options.continuity_weight > 0) {
+      previous = q_previous;
       differenceConfiguration(info.floating_base, q, *q_previous, e_q);
       const double w2 = options.continuity_weight * options.continuity_weight;
       H.diagonal().array() += w2;
       g += w2 * e_q;
-    } else {
-      q_previous = nullptr;
     }
     lo.setConstant(-1e300);
     hi.setConstant(1e300);
@@ -100,56 +102,64 @@ IkResult solvePoseIk(IDynamicsModel& model, const std::vector<IkTarget>& targets
       lo[vi] = info.q_lower[j] - q[qi];
       hi[vi] = info.q_upper[j] - q[qi];
     }
-    // Active set on the bounds: fix violators at their bound, solve the rest again.
-    std::vector<char> fixed(static_cast<std::size_t>(nv), 0);
-    dv.setZero();
-    for (int round = 0; round < nv; ++round) {
-      std::vector<int> free_idx;
-      for (int c = 0; c < nv; ++c)
-        if (!fixed[static_cast<std::size_t>(c)]) free_idx.push_back(c);
-      const int nf = static_cast<int>(free_idx.size());
-      Eigen::MatrixXd Hf(nf, nf);
-      Eigen::VectorXd gf(nf);
-      for (int a = 0; a < nf; ++a) {
-        gf[a] = g[free_idx[static_cast<std::size_t>(a)]];
+    const double cost0 = ikCost(model, targets, q, q_posture, posture_weights, previous, options.continuity_weight, e_q);
+    // Levenberg–Marquardt: a step that does not lower the objective is retried with 10×
+    // the damping; an accepted one lowers it 3×. No step lowers it: converged.
+    bool accepted = false;
+    for (int attempt = 0; attempt < 12 && !accepted; ++attempt) {
+      // Active set on the bounds: fix violators at their bound, solve the rest again.
+      std::vector<char> fixed(static_cast<std::size_t>(nv), 0);
+      dv.setZero();
+      for (int round = 0; round < nv; ++round) {
+        std::vector<int> free_idx;
         for (int c = 0; c < nv; ++c)
-          if (fixed[static_cast<std::size_t>(c)]) gf[a] -= H(free_idx[static_cast<std::size_t>(a)], c) * dv[c];
-        for (int b = 0; b < nf; ++b)
-          Hf(a, b) = H(free_idx[static_cast<std::size_t>(a)], free_idx[static_cast<std::size_t>(b)]);
-      }
-      const Eigen::VectorXd x = Hf.ldlt().solve(gf);
-      bool violated = false;
-      for (int a = 0; a < nf; ++a) {
-        const int c = free_idx[static_cast<std::size_t>(a)];
-        dv[c] = x[a];
-        if (dv[c] < lo[c] - 1e-12 || dv[c] > hi[c] + 1e-12) {
-          dv[c] = std::clamp(dv[c], lo[c], hi[c]);
-          fixed[static_cast<std::size_t>(c)] = 1;
-          violated = true;
+          if (!fixed[static_cast<std::size_t>(c)]) free_idx.push_back(c);
+        const int nf = static_cast<int>(free_idx.size());
+        Eigen::MatrixXd Hf(nf, nf);
+        Eigen::VectorXd gf(nf);
+        for (int a = 0; a < nf; ++a) {
+          gf[a] = g[free_idx[static_cast<std::size_t>(a)]];
+          for (int c = 0; c < nv; ++c)
+            if (fixed[static_cast<std::size_t>(c)]) gf[a] -= H(free_idx[static_cast<std::size_t>(a)], c) * dv[c];
+          for (int b = 0; b < nf; ++b)
+            Hf(a, b) = H(free_idx[static_cast<std::size_t>(a)], free_idx[static_cast<std::size_t>(b)]);
+          Hf(a, a) += lambda * (Hf(a, a) + 1.0);  // Marquardt's scaling
         }
+        const Eigen::VectorXd x = Hf.ldlt().solve(gf);
+        bool violated = false;
+        for (int a = 0; a < nf; ++a) {
+          const int c = free_idx[static_cast<std::size_t>(a)];
+          dv[c] = x[a];
+          if (dv[c] < lo[c] - 1e-12 || dv[c] > hi[c] + 1e-12) {
+            dv[c] = std::clamp(dv[c], lo[c], hi[c]);
+            fixed[static_cast<std::size_t>(c)] = 1;
+            violated = true;
+          }
+        }
+        if (!violated) break;
       }
-      if (!violated) break;
-    }
-    double step = dv.lpNorm<Eigen::Infinity>();
-    if (step > kMaxStep) dv *= kMaxStep / step;  // inside the bounds too: lo ≤ 0 ≤ hi
-    // Backtracking: halve the step until the objective does not increase.
-    const double cost0 = ikCost(model, targets, q, q_posture, posture_weights, q_previous, options.continuity_weight, e_q);
-    Eigen::VectorXd q_try(q.size());
-    for (int halving = 0; halving < 8; ++halving) {
+      const double step = dv.lpNorm<Eigen::Infinity>();
+      if (step > kMaxStep) dv *= kMaxStep / step;  // inside the bounds too: lo ≤ 0 ≤ hi
       integrateConfiguration(info.floating_base, q, dv, 1.0, q_try);
       for (int j = 0; j < info.nj; ++j) {
         const int qi = info.configurationIndex(j);
         q_try[qi] = std::clamp(q_try[qi], info.q_lower[j], info.q_upper[j]);
       }
       model.setState(q_try, v0);
-      if (ikCost(model, targets, q_try, q_posture, posture_weights, q_previous,
-                 options.continuity_weight, e_q) <= cost0 || halving == 7) break;
-      dv *= 0.5;
+      if (ikCost(model, targets, q_try, q_posture, posture_weights, previous, options.continuity_weight, e_q) <= cost0) {
+        accepted = true;
+        lambda = std::max(lambda / 3.0, kMinLambda);
+      } else {
+        lambda *= 10.0;
+      }
     }
-    step = dv.lpNorm<Eigen::Infinity>();
-    q = q_try;
     result.iterations = it + 1;
-    if (step < options.tolerance) {
+    if (!accepted) {  // no step lowers the objective: a minimum (within the bounds)
+      result.converged = true;
+      break;
+    }
+    q = q_try;
+    if (dv.lpNorm<Eigen::Infinity>() < options.tolerance) {
       result.converged = true;
       break;
     }

@@ -1,10 +1,12 @@
 #include "dynfilter/io/reference_cleanup.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -12,16 +14,23 @@
 #include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/core/balance.hpp"
+#include "dynfilter/core/polygon.hpp"
 #include "dynfilter/io/input_error.hpp"
 #include "dynfilter/io/pose_ik.hpp"
+#include "dynfilter/io/reference_balance.hpp"
 
 namespace dynfilter::io {
 namespace {
+
+// A sole point this close to the ground touches it (skate measure), m.
+constexpr double kTouchHeight = 0.005;
 
 // IK weights of the foot targets: position (1/m) and orientation (1/rad); far above the
 // posture weights so that a stance foot stays within a fraction of a millimetre.
 constexpr double kFootPositionWeight = 1e3;
 constexpr double kFootOrientationWeight = 10.0;
+
 
 // A foot: its body and sole points (body frame) from the neutral stance.
 struct Foot {
@@ -151,39 +160,97 @@ ContactSchedule schedule(const ReferenceMotion& motion, IDynamicsModel& model, c
   }
   std::vector<std::vector<double>> height(static_cast<std::size_t>(nf), std::vector<double>(static_cast<std::size_t>(n)));
   std::vector<std::vector<Eigen::Vector3d>> centre(static_cast<std::size_t>(nf), std::vector<Eigen::Vector3d>(static_cast<std::size_t>(n)));
+  std::vector<std::vector<Eigen::Isometry3d>> pose(static_cast<std::size_t>(nf), std::vector<Eigen::Isometry3d>(static_cast<std::size_t>(n)));
+  std::vector<Eigen::Vector3d> com(static_cast<std::size_t>(n));
   const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
+  Eigen::MatrixXd A(info.nv, info.nv);
   for (int k = 0; k < n; ++k) {
-    model.setState(motion.frames[static_cast<std::size_t>(k)].q, v0);
+    const Eigen::VectorXd& q = motion.frames[static_cast<std::size_t>(k)].q;
+    model.setState(q, v0);
+    model.massMatrix(A);
+    com[static_cast<std::size_t>(k)] = centroidalState(A, q, v0, info.total_mass).c_W;
     s.time_s.push_back(motion.frames[static_cast<std::size_t>(k)].time_s);
-    for (int i = 0; i < nf; ++i)
-      soleState(model, setup.feet[static_cast<std::size_t>(i)], height[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)],
+    for (int i = 0; i < nf; ++i) {
+      const Foot& f = setup.feet[static_cast<std::size_t>(i)];
+      soleState(model, f, height[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)],
                 centre[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)]);
+      pose[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] = model.bodyPose(f.body);
+    }
   }
   const Eigen::Vector3d normal = groundNormal(model);
+  const Eigen::Matrix3d R_PW = groundPlaneFrame(model);
   const double h_max = options.contact_height * setup.leg_length_m;
   const double v_max = options.contact_speed * setup.leg_length_m;
   const double duration = s.time_s.back() - s.time_s.front();
   const double dt = duration / std::max(1, n - 1);
   const int min_frames = std::max(1, static_cast<int>(std::lround(options.min_phase_s / std::max(dt, 1e-9))));
   s.stance.assign(static_cast<std::size_t>(n), std::vector<char>(static_cast<std::size_t>(nf), 0));
+  // Per foot and frame: in stance when slow along the ground and low (within h_max).
+  std::vector<std::vector<char>> slow(static_cast<std::size_t>(nf), std::vector<char>(static_cast<std::size_t>(n), 0));
+  std::vector<std::vector<char>> st(static_cast<std::size_t>(nf), std::vector<char>(static_cast<std::size_t>(n), 0));
   for (int i = 0; i < nf; ++i) {
     const auto& c = centre[static_cast<std::size_t>(i)];
-    std::vector<char> st(static_cast<std::size_t>(n), 0);
     for (int k = 0; k < n; ++k) {
       const int a = std::max(0, k - 1), b = std::min(n - 1, k + 1);
       Eigen::Vector3d d = c[static_cast<std::size_t>(b)] - c[static_cast<std::size_t>(a)];
       d -= d.dot(normal) * normal;
       const double speed = d.norm() / std::max(s.time_s[static_cast<std::size_t>(b)] - s.time_s[static_cast<std::size_t>(a)], 1e-9);
-      st[static_cast<std::size_t>(k)] = height[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] <= h_max && speed <= v_max;
+      // Still: slow in every direction (a swing foot's apex is slow only for an instant).
+      const Eigen::Vector3d d3 = c[static_cast<std::size_t>(b)] - c[static_cast<std::size_t>(a)];
+      slow[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] =
+          d3.norm() / std::max(s.time_s[static_cast<std::size_t>(b)] - s.time_s[static_cast<std::size_t>(a)], 1e-9) <= 0.5 * v_max;
+      st[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] =
+          speed <= v_max && height[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] <= h_max;
     }
+  }
+  // A foot is still at frame k when it is slow in every direction over min_phase_s
+  // around k.
+  std::vector<std::vector<char>> still = slow;
+  for (int i = 0; i < nf; ++i)
+    for (int k = 0; k < n; ++k)
+      for (int j = std::max(0, k - min_frames / 2); j <= std::min(n - 1, k + min_frames / 2); ++j)
+        still[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] &= slow[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)];
+  // Support completion: where the CoM stands outside the stance feet by more than
+  // kSupportSlack, a still foot within kHoverFactor h_max of the ground is in stance too
+  // (lowest first). A figure retargeted with a wide stance stands with one foot hovering a
+  // few centimetres up; the subject stood on both.
+  constexpr double kSupportSlack = 0.02;  // m
+  constexpr double kHoverFactor = 3.0;
+  std::array<Eigen::Vector2d, 128> points, hull;
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Vector2d c_P = (R_PW * com[static_cast<std::size_t>(k)]).head<2>();
+    for (int added = 0; added < nf; ++added) {
+      int m = 0;
+      for (int i = 0; i < nf; ++i) {
+        if (!st[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)]) continue;
+        for (const Eigen::Vector3d& p : setup.feet[static_cast<std::size_t>(i)].sole)
+          if (m < static_cast<int>(points.size()))
+            points[static_cast<std::size_t>(m++)] = (R_PW * (pose[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] * p)).head<2>();
+      }
+      const int h = polygon::convexHull(points, m, hull);
+      if (h > 0 && (polygon::clampToHull(c_P, hull, h) - c_P).norm() <= kSupportSlack) break;
+      int best = -1;
+      for (int i = 0; i < nf; ++i) {
+        const double hi = height[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)];
+        if (st[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] || !still[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] ||
+            hi > kHoverFactor * h_max)
+          continue;
+        if (best < 0 || hi < height[static_cast<std::size_t>(best)][static_cast<std::size_t>(k)]) best = i;
+      }
+      if (best < 0) break;
+      st[static_cast<std::size_t>(best)][static_cast<std::size_t>(k)] = 1;
+    }
+  }
+  for (int i = 0; i < nf; ++i) {
+    std::vector<char>& foot = st[static_cast<std::size_t>(i)];
     // Short swing gaps inside stance become stance; then short stance runs become swing.
     for (const char value : {char(0), char(1)})
-      for (const auto& [b, e] : runsOf(st, value))
+      for (const auto& [b, e] : runsOf(foot, value))
         if (e - b < min_frames && b > 0 && e < n)
-          std::fill(st.begin() + b, st.begin() + e, static_cast<char>(1 - value));
-    for (const auto& [b, e] : runsOf(st, 1))
-      if (e - b < min_frames) std::fill(st.begin() + b, st.begin() + e, 0);
-    for (int k = 0; k < n; ++k) s.stance[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)] = st[static_cast<std::size_t>(k)];
+          std::fill(foot.begin() + b, foot.begin() + e, static_cast<char>(1 - value));
+    for (const auto& [b, e] : runsOf(foot, 1))
+      if (e - b < min_frames) std::fill(foot.begin() + b, foot.begin() + e, 0);
+    for (int k = 0; k < n; ++k) s.stance[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)] = foot[static_cast<std::size_t>(k)];
   }
   return s;
 }
@@ -197,11 +264,13 @@ void ReferenceCleanupOptions::validate() const {
   require(std::isfinite(contact_height) && contact_height > 0, "contact_height: must be > 0");
   require(std::isfinite(contact_speed) && contact_speed > 0, "contact_speed: must be > 0");
   require(std::isfinite(min_phase_s) && min_phase_s >= 0, "min_phase_s: must be >= 0");
-  require(std::isfinite(blend_s) && blend_s >= 0, "blend_s: must be >= 0");
   require(std::isfinite(base_weight) && base_weight >= 0, "base_weight: must be >= 0");
   require(std::isfinite(posture_weight) && posture_weight > 0, "posture_weight: must be > 0");
   require(std::isfinite(leg_weight) && leg_weight > 0, "leg_weight: must be > 0");
   require(std::isfinite(continuity_weight) && continuity_weight >= 0, "continuity_weight: must be >= 0");
+  require(std::isfinite(lowpass_hz) && lowpass_hz >= 0, "lowpass_hz: must be >= 0 (0: off)");
+  require(std::isfinite(zmp_margin_m) && zmp_margin_m >= 0, "zmp_margin_m: must be >= 0");
+  require(balance_iterations >= 1 && balance_iterations <= 20, "balance_iterations: must be in [1, 20]");
   require(smoothing_window >= 3 && smoothing_window % 2 == 1, "smoothing_window: must be odd and >= 3");
 }
 
@@ -222,25 +291,39 @@ std::vector<FootReport> measureFeet(const ReferenceMotion& motion, IDynamicsMode
   const int n = static_cast<int>(motion.frames.size());
   std::vector<FootReport> out(setup.feet.size());
   const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
-  std::vector<Eigen::Vector3d> start(setup.feet.size());
+  // Per sole point: where it touched down in the current stance run (NaN: not touching).
+  std::vector<std::vector<Eigen::Vector3d>> touched(setup.feet.size());
+  for (std::size_t i = 0; i < setup.feet.size(); ++i)
+    touched[i].assign(setup.feet[i].sole.size(), Eigen::Vector3d::Constant(std::nan("")));
   for (int k = 0; k < n; ++k) {
     model.setState(motion.frames[static_cast<std::size_t>(k)].q, v0);
     for (std::size_t i = 0; i < setup.feet.size(); ++i) {
       FootReport& r = out[i];
-      r.link = setup.feet[i].link;
+      const Foot& f = setup.feet[i];
+      r.link = f.link;
       double h = 0.0;
       Eigen::Vector3d c;
-      soleState(model, setup.feet[i], h, c);
+      soleState(model, f, h, c);
       r.penetration_before_m = std::max(r.penetration_before_m, -h);
       const bool st = schedule.stance[static_cast<std::size_t>(k)][i] != 0;
       const bool began = st && (k == 0 || schedule.stance[static_cast<std::size_t>(k - 1)][i] == 0);
-      if (began) {
-        start[i] = c;
-        ++r.stance_runs;
+      if (began) ++r.stance_runs;
+      if (!st) {
+        for (Eigen::Vector3d& p : touched[i]) p.setConstant(std::nan(""));
+        continue;
       }
-      if (st) {
-        r.stance_fraction += 1.0 / n;
-        Eigen::Vector3d d = c - start[i];
+      r.stance_fraction += 1.0 / n;
+      // Skate: a sole point on the ground slides along it. A foot that rolls over its heel
+      // or toe does not skate: the points it leaves stop counting.
+      const Eigen::Isometry3d X = model.bodyPose(f.body);
+      for (std::size_t s = 0; s < f.sole.size(); ++s) {
+        const Eigen::Vector3d p = X * f.sole[s];
+        if (groundHeight(model, p) > kTouchHeight) {
+          touched[i][s].setConstant(std::nan(""));
+          continue;
+        }
+        if (!touched[i][s].allFinite()) touched[i][s] = p;
+        Eigen::Vector3d d = p - touched[i][s];
         d -= d.dot(normal) * normal;
         r.skate_before_m = std::max(r.skate_before_m, d.norm());
       }
@@ -249,9 +332,12 @@ std::vector<FootReport> measureFeet(const ReferenceMotion& motion, IDynamicsMode
   return out;
 }
 
-CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& model,
+CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& model,
                                const ReferenceCleanupOptions& options) {
-  if (motion.frames.size() < 2) throw std::invalid_argument("cleanupReference: fewer than 2 frames");
+  if (input.frames.size() < 2) throw std::invalid_argument("cleanupReference: fewer than 2 frames");
+  // Everything below works on the low-passed motion; the report compares with the input.
+  ReferenceMotion motion = input;
+  if (options.lowpass_hz > 0) lowPassConfigurations(motion.frames, true, options.lowpass_hz);
   const ModelInfo& info = model.info();
   const Setup setup = findFeet(model, options);
   CleanupResult result;
@@ -289,22 +375,29 @@ CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& mo
   };
   std::vector<std::vector<Eigen::Isometry3d>> X_goal = X_ref;
   const double dt = (sched.time_s.back() - sched.time_s.front()) / std::max(1, n - 1);
-  const int blend = static_cast<int>(std::lround(options.blend_s / std::max(dt, 1e-9)));
   for (int i = 0; i < nf; ++i) {
     const Foot& f = setup.feet[static_cast<std::size_t>(i)];
     auto& goal = X_goal[static_cast<std::size_t>(i)];
     const auto& ref = X_ref[static_cast<std::size_t>(i)];
     std::vector<char> st(static_cast<std::size_t>(n));
     for (int k = 0; k < n; ++k) st[static_cast<std::size_t>(k)] = sched.stance[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)];
-    std::vector<double> w(static_cast<std::size_t>(n), 0.0);
-    std::vector<Eigen::Isometry3d> stance_pose(static_cast<std::size_t>(n));
     const std::vector<std::pair<int, int>> runs = runsOf(st, 1);
+    // Per run: its stance pose, and the correction of the reference's foot at the run's
+    // first and last frame (sole centre moved by dp, orientation turned by R in world).
+    struct Correction {
+      Eigen::Vector3d dp = Eigen::Vector3d::Zero();
+      Eigen::Quaterniond R = Eigen::Quaterniond::Identity();
+    };
+    auto correction = [&](const Eigen::Isometry3d& P, const Eigen::Isometry3d& X) {
+      Correction c;
+      c.dp = P * f.centre - X * f.centre;
+      c.R = Eigen::Quaterniond(P.linear() * X.linear().transpose());
+      return c;
+    };
+    std::vector<Eigen::Isometry3d> pose(runs.size());
+    std::vector<Correction> at_start(runs.size()), at_end(runs.size());
     for (std::size_t r = 0; r < runs.size(); ++r) {
       const auto [b, e] = runs[r];
-      // Ramps in and out span at most half the swing gap to the neighbouring runs, so two
-      // runs never both pull on a frame and the target stays continuous.
-      const double ramp_in = r > 0 ? std::min(blend + 1.0, 0.5 * (b - runs[r - 1].second + 1)) : blend + 1.0;
-      const double ramp_out = r + 1 < runs.size() ? std::min(blend + 1.0, 0.5 * (runs[r + 1].first - e + 1)) : blend + 1.0;
       Eigen::Vector3d c = Eigen::Vector3d::Zero();
       Eigen::Vector3d xs = Eigen::Vector3d::Zero();
       for (int k = b; k < e; ++k) {
@@ -313,27 +406,37 @@ CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& mo
       }
       c /= static_cast<double>(e - b);
       // Mean heading: the flat pose of the mean forward direction.
-      const Eigen::Vector3d x_ref_mean = xs.normalized();
       const Eigen::Vector3d x0 = f.R_flat * Eigen::Vector3d::UnitX();
-      const Eigen::Matrix3d R_heading = Eigen::Quaterniond::FromTwoVectors(x0, x_ref_mean).toRotationMatrix();
-      const Eigen::Isometry3d P = flatPose(f, R_heading * f.R_flat, c);
-      for (int k = std::max(0, b - blend); k < std::min(n, e + blend); ++k) {
-        const double wk = k < b ? smoothstep(1.0 - static_cast<double>(b - k) / ramp_in)
-                          : k >= e ? smoothstep(1.0 - static_cast<double>(k - e + 1) / ramp_out)
-                                   : 1.0;
-        if (wk > w[static_cast<std::size_t>(k)]) {
-          w[static_cast<std::size_t>(k)] = wk;
-          stance_pose[static_cast<std::size_t>(k)] = P;
-        }
-      }
+      const Eigen::Matrix3d R_heading = Eigen::Quaterniond::FromTwoVectors(x0, xs.normalized()).toRotationMatrix();
+      pose[r] = flatPose(f, R_heading * f.R_flat, c);
+      at_start[r] = correction(pose[r], ref[static_cast<std::size_t>(b)]);
+      at_end[r] = correction(pose[r], ref[static_cast<std::size_t>(e - 1)]);
     }
+    // In stance the stance pose; in a swing the reference's foot corrected by what ended
+    // the last stance blended smoothly into what starts the next (over the whole swing, so
+    // the target never jumps and accelerates as little as the swing allows); before the
+    // first and after the last stance, by that stance's correction.
+    std::size_t r = 0;
     for (int k = 0; k < n; ++k) {
-      const double wk = w[static_cast<std::size_t>(k)];
+      while (r < runs.size() && runs[r].second <= k) ++r;  // the first run not yet over
       Eigen::Isometry3d X = ref[static_cast<std::size_t>(k)];
-      if (wk > 0) {
-        const Eigen::Isometry3d& P = stance_pose[static_cast<std::size_t>(k)];
-        X.translation() = (1 - wk) * X.translation() + wk * P.translation();
-        X.linear() = Eigen::Quaterniond(X.linear()).slerp(wk, Eigen::Quaterniond(P.linear())).toRotationMatrix();
+      if (r < runs.size() && runs[r].first <= k) {
+        X = pose[r];
+      } else if (!runs.empty()) {
+        Correction c;
+        if (r == 0) {
+          c = at_start[0];
+        } else if (r == runs.size()) {
+          c = at_end[runs.size() - 1];
+        } else {
+          const int e = runs[r - 1].second, b = runs[r].first;  // swing frames [e, b)
+          const double s = smoothstep((k - e + 1.0) / (b - e + 1.0));
+          c.dp = (1.0 - s) * at_end[r - 1].dp + s * at_start[r].dp;
+          c.R = at_end[r - 1].R.slerp(s, at_start[r].R);
+        }
+        const Eigen::Vector3d p = X * f.centre + c.dp;
+        X.linear() = c.R.toRotationMatrix() * X.linear();
+        X.translation() = p - X.linear() * f.centre;
       }
       double h = std::numeric_limits<double>::infinity();
       for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X * p));
@@ -360,34 +463,121 @@ CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& mo
   ik.max_iterations = 100;
   ik.tolerance = 1e-9;
   ik.continuity_weight = options.continuity_weight;
-  result.motion = motion;
-  Eigen::VectorXd q_prev, dv_ref(info.nv);
-  for (int k = 0; k < n; ++k) {
-    const Eigen::VectorXd& q_ref = motion.frames[static_cast<std::size_t>(k)].q;
-    for (int i = 0; i < nf; ++i) {
-      const Eigen::Isometry3d& X = X_goal[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)];
-      targets[static_cast<std::size_t>(i)].p_WP = X * setup.feet[static_cast<std::size_t>(i)].centre;
-      targets[static_cast<std::size_t>(i)].R_WB = X.linear();
+  // One IK pass over the clip: the feet at their goals, everything else held at the
+  // reference with its base moved by shift_W[k] (the balance stage's CoM shift).
+  auto solvePass = [&](const ReferenceMotion& posture, const std::vector<Eigen::Vector3d>& shift_W,
+                       ReferenceMotion& out) {
+    out = posture;
+    Eigen::VectorXd q_prev, dv_ref(info.nv);
+    for (int k = 0; k < n; ++k) {
+      Eigen::VectorXd q_ref = posture.frames[static_cast<std::size_t>(k)].q;
+      q_ref.head<3>() += shift_W[static_cast<std::size_t>(k)];
+      for (int i = 0; i < nf; ++i) {
+        const Eigen::Isometry3d& X = X_goal[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)];
+        targets[static_cast<std::size_t>(i)].p_WP = X * setup.feet[static_cast<std::size_t>(i)].centre;
+        targets[static_cast<std::size_t>(i)].R_WB = X.linear();
+      }
+      // Start from the previous frame's answer moved by the reference's own change, and
+      // hold the answer near it (continuity): the clip follows one branch of the IK's
+      // solutions instead of jumping between local minima where a foot target is hard.
+      Eigen::VectorXd q = q_ref;
+      if (k > 0) {
+        Eigen::VectorXd q_ref_prev = posture.frames[static_cast<std::size_t>(k - 1)].q;
+        q_ref_prev.head<3>() += shift_W[static_cast<std::size_t>(k - 1)];
+        differenceConfiguration(true, q_ref_prev, q_ref, dv_ref);
+        integrateConfiguration(true, q_prev, dv_ref, 1.0, q);
+      }
+      const Eigen::VectorXd q_predicted = q;
+      solvePoseIk(model, targets, q_ref, weights, ik, q, k > 0 ? &q_predicted : nullptr);
+      Eigen::Quaterniond a(q_ref[3], q_ref[4], q_ref[5], q_ref[6]), b(q[3], q[4], q[5], q[6]);
+      if (a.dot(b) < 0) q.segment<4>(3) *= -1.0;
+      out.frames[static_cast<std::size_t>(k)].q = q;
+      q_prev = q;
     }
-    // Start from the previous frame's answer moved by the reference's own change, and hold
-    // the answer near it (continuity): the clip follows one branch of the IK's solutions
-    // instead of jumping between local minima where a foot target is hard to reach.
-    Eigen::VectorXd q = q_ref;
-    if (k > 0) {
-      differenceConfiguration(true, motion.frames[static_cast<std::size_t>(k - 1)].q, q_ref, dv_ref);
-      integrateConfiguration(true, q_prev, dv_ref, 1.0, q);
+  };
+  // The IK's answer can turn quickly where a foot target is hard to reach (a leg
+  // straightening at a stance change): it is low-passed and solved again with the smoothed
+  // answer as the posture, so that the feet stay exact.
+  auto solveClip = [&](const std::vector<Eigen::Vector3d>& shift_W, ReferenceMotion& out) {
+    solvePass(motion, shift_W, out);
+    if (options.lowpass_hz > 0) {
+      lowPassConfigurations(out.frames, true, options.lowpass_hz);
+      const ReferenceMotion smoothed = out;
+      solvePass(smoothed, std::vector<Eigen::Vector3d>(shift_W.size(), Eigen::Vector3d::Zero()), out);
     }
-    const Eigen::VectorXd q_predicted = q;
-    solvePoseIk(model, targets, q_ref, weights, ik, q, k > 0 ? &q_predicted : nullptr);
-    Eigen::Quaterniond a(q_ref[3], q_ref[4], q_ref[5], q_ref[6]), b(q[3], q[4], q[5], q[6]);
-    if (a.dot(b) < 0) q.segment<4>(3) *= -1.0;
-    result.motion.frames[static_cast<std::size_t>(k)].q = q;
-    q_prev = q;
+    estimateDerivatives(out.frames, true, options.smoothing_window, true, true);
+  };
+  std::vector<Eigen::Vector3d> shift_W(static_cast<std::size_t>(n), Eigen::Vector3d::Zero());
+  solveClip(shift_W, result.motion);
+
+  // Balance: the ZMP into the stance soles' support (shrunk by zmp_margin_m), by moving the
+  // base along the ground (δ − δ̈/ω² = the ZMP's distance to the support), the feet kept.
+  CleanupReport& rep = result.report;
+  auto supportOf = [&](const ReferenceMotion& m) {
+    std::vector<std::vector<Eigen::Vector3d>> support(static_cast<std::size_t>(n));
+    for (int k = 0; k < n; ++k) {
+      model.setState(m.frames[static_cast<std::size_t>(k)].q, v0);
+      for (int i = 0; i < nf; ++i) {
+        if (!sched.stance[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)]) continue;
+        const Foot& f = setup.feet[static_cast<std::size_t>(i)];
+        const Eigen::Isometry3d X = model.bodyPose(f.body);
+        for (const Eigen::Vector3d& p : f.sole) {
+          const Eigen::Vector3d r = p - f.centre;
+          const double shrink = std::max(0.0, 1.0 - options.zmp_margin_m / std::max(r.norm(), 1e-9));
+          support[static_cast<std::size_t>(k)].push_back(X * (f.centre + shrink * r));
+        }
+      }
+    }
+    return support;
+  };
+  auto summarise = [&](const std::vector<ZmpSample>& z, int& frames_outside, double& max_m, double& rms_m) {
+    frames_outside = 0;
+    max_m = 0.0;
+    double sum = 0.0;
+    for (const ZmpSample& s : z) {
+      frames_outside += s.defined && s.outside_m > 1e-4;
+      max_m = std::max(max_m, s.outside_m);
+      sum += s.outside_m * s.outside_m;
+    }
+    rms_m = std::sqrt(sum / std::max<std::size_t>(1, z.size()));
+  };
+  std::vector<ZmpSample> zmp = zmpAgainstSupport(result.motion, model, supportOf(result.motion));
+  summarise(zmp, rep.zmp_frames_outside_before, rep.zmp_outside_max_before_m, rep.zmp_outside_rms_before_m);
+  rep.zmp_frames_outside_after = rep.zmp_frames_outside_before;
+  rep.zmp_outside_max_after_m = rep.zmp_outside_max_before_m;
+  rep.zmp_outside_rms_after_m = rep.zmp_outside_rms_before_m;
+  if (options.balance && rep.zmp_frames_outside_before > 0) {
+    const Eigen::Matrix3d R_PW = groundPlaneFrame(model);
+    double height = 0.0;
+    for (const ZmpSample& z : zmp) height += z.com_height_m / n;
+    const double omega = std::sqrt(9.81 / std::max(height, 0.2));
+    std::vector<Eigen::Vector2d> e(static_cast<std::size_t>(n));
+    ReferenceMotion trial;
+    for (int it = 0; it < options.balance_iterations; ++it) {
+      for (int k = 0; k < n; ++k) {
+        const ZmpSample& z = zmp[static_cast<std::size_t>(k)];
+        // The moment the support lacks, per unit weight: a ZMP far out under a light load
+        // (a jump's take-off) asks for less shift than the same distance at full weight.
+        e[static_cast<std::size_t>(k)] =
+            z.defined ? Eigen::Vector2d(std::min(1.0, z.vertical_load) * (z.nearest - z.zmp)) : Eigen::Vector2d::Zero();
+      }
+      const std::vector<Eigen::Vector2d> delta = comShiftForZmp(e, dt, omega);
+      for (int k = 0; k < n; ++k)
+        shift_W[static_cast<std::size_t>(k)] += R_PW.topRows<2>().transpose() * delta[static_cast<std::size_t>(k)];
+      solveClip(shift_W, trial);
+      zmp = zmpAgainstSupport(trial, model, supportOf(trial));
+      result.motion = trial;
+      summarise(zmp, rep.zmp_frames_outside_after, rep.zmp_outside_max_after_m, rep.zmp_outside_rms_after_m);
+      if (rep.zmp_frames_outside_after == 0) break;
+    }
+    for (const Eigen::Vector3d& s : shift_W) {
+      rep.com_shift_max_m = std::max(rep.com_shift_max_m, s.norm());
+      rep.com_shift_rms_m += s.squaredNorm() / n;
+    }
+    rep.com_shift_rms_m = std::sqrt(rep.com_shift_rms_m);
   }
-  estimateDerivatives(result.motion.frames, true, options.smoothing_window, true, true);
 
   // Report.
-  CleanupReport& rep = result.report;
   rep.leg_length_m = setup.leg_length_m;
   double total = 0.0;
   for (int j = 0; j < info.nj; ++j) {
@@ -396,7 +586,7 @@ CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& mo
     const int qi = info.configurationIndex(j);
     double sum = 0.0;
     for (int k = 0; k < n; ++k) {
-      const double d = result.motion.frames[static_cast<std::size_t>(k)].q[qi] - motion.frames[static_cast<std::size_t>(k)].q[qi];
+      const double d = result.motion.frames[static_cast<std::size_t>(k)].q[qi] - input.frames[static_cast<std::size_t>(k)].q[qi];
       r.max_change_rad = std::max(r.max_change_rad, std::fabs(d));
       sum += d * d;
     }
@@ -408,14 +598,14 @@ CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& mo
   for (int k = 0; k < n; ++k)
     rep.base_position_change_max_m =
         std::max(rep.base_position_change_max_m,
-                 (result.motion.frames[static_cast<std::size_t>(k)].q.head<3>() - motion.frames[static_cast<std::size_t>(k)].q.head<3>()).norm());
-  rep.feet = measureFeet(motion, model, sched);
+                 (result.motion.frames[static_cast<std::size_t>(k)].q.head<3>() - input.frames[static_cast<std::size_t>(k)].q.head<3>()).norm());
+  rep.feet = measureFeet(input, model, sched);
   const std::vector<FootReport> after = measureFeet(result.motion, model, sched);
   for (std::size_t i = 0; i < rep.feet.size(); ++i) {
     rep.feet[i].skate_after_m = after[i].skate_before_m;
     rep.feet[i].penetration_after_m = after[i].penetration_before_m;
   }
-  limitSummary(info, motion.frames, rep.joints_outside_before, rep.limit_excess_rms_before_rad);
+  limitSummary(info, input.frames, rep.joints_outside_before, rep.limit_excess_rms_before_rad);
   limitSummary(info, result.motion.frames, rep.joints_outside_after, rep.limit_excess_rms_after_rad);
   return result;
 }
@@ -459,6 +649,14 @@ std::string formatCleanupReport(const CleanupReport& report) {
                   1e3 * f.skate_after_m, 1e3 * f.penetration_before_m, 1e3 * f.penetration_after_m);
     out << line;
   }
+  std::snprintf(line, sizeof line,
+                "  ZMP outside the stance support: %d -> %d frames, max %.1f -> %.1f mm, RMS %.1f -> %.1f mm; "
+                "base shifted along the ground by at most %.1f mm (RMS %.1f)\n",
+                report.zmp_frames_outside_before, report.zmp_frames_outside_after,
+                1e3 * report.zmp_outside_max_before_m, 1e3 * report.zmp_outside_max_after_m,
+                1e3 * report.zmp_outside_rms_before_m, 1e3 * report.zmp_outside_rms_after_m,
+                1e3 * report.com_shift_max_m, 1e3 * report.com_shift_rms_m);
+  out << line;
   std::snprintf(line, sizeof line,
                 "  joint limits: %d joints outside before, %d after; excess %.4f -> %.4f rad RMS\n",
                 report.joints_outside_before, report.joints_outside_after,

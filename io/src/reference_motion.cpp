@@ -333,3 +333,46 @@ void estimateDerivatives(std::vector<ReferenceFrame>& frames, bool floating_base
 }
 
 }  // namespace dynfilter::io
+
+namespace dynfilter::io {
+
+void lowPassConfigurations(std::vector<ReferenceFrame>& frames, bool floating_base, double cutoff_hz) {
+  if (!(cutoff_hz > 0) || !std::isfinite(cutoff_hz))
+    throw std::invalid_argument("lowPassConfigurations: cutoff_hz must be > 0");
+  const int n = static_cast<int>(frames.size());
+  if (n < 3) return;
+  const Eigen::Index nq = frames.front().q.size();
+  for (const ReferenceFrame& f : frames)
+    if (f.q.size() != nq) throw std::invalid_argument("lowPassConfigurations: frames differ in the size of q");
+  const double sigma = 0.1325 / cutoff_hz;
+  const std::vector<ReferenceFrame> in = frames;
+  const int b0 = floating_base ? kFloatingBaseNq : 0;  // first joint coordinate
+  for (int k = 0; k < n; ++k) {
+    const double t = in[static_cast<std::size_t>(k)].time_s;
+    int lo = k, hi = k;
+    while (lo > 0 && t - in[static_cast<std::size_t>(lo - 1)].time_s <= 3.0 * sigma) --lo;
+    while (hi + 1 < n && in[static_cast<std::size_t>(hi + 1)].time_s - t <= 3.0 * sigma) ++hi;
+    Eigen::VectorXd sum = Eigen::VectorXd::Zero(nq);
+    Eigen::Vector3d rot = Eigen::Vector3d::Zero();
+    double weight = 0.0;
+    Eigen::Matrix3d R_k = Eigen::Matrix3d::Identity();
+    if (floating_base) R_k = basePoseFromConfiguration(in[static_cast<std::size_t>(k)].q).linear();
+    for (int j = lo; j <= hi; ++j) {
+      const ReferenceFrame& f = in[static_cast<std::size_t>(j)];
+      const double d = (f.time_s - t) / sigma;
+      const double w = std::exp(-0.5 * d * d);
+      weight += w;
+      sum += w * f.q;
+      if (floating_base) rot += w * logSO3(R_k.transpose() * basePoseFromConfiguration(f.q).linear());
+    }
+    Eigen::VectorXd& q = frames[static_cast<std::size_t>(k)].q;
+    q.tail(nq - b0) = sum.tail(nq - b0) / weight;
+    if (floating_base) {
+      q.head<3>() = sum.head<3>() / weight;
+      const Eigen::Quaterniond Q(R_k * expSO3(rot / weight));
+      q.segment<4>(3) << Q.w(), Q.x(), Q.y(), Q.z();
+    }
+  }
+}
+
+}  // namespace dynfilter::io

@@ -228,19 +228,23 @@ class MappingParser {
               } else if (k == "cleanup") {
                 ReferenceCleanupOptions& c = m.cleanup;
                 readMap(v, "cleanup",
-                        {"feet", "contact_height", "contact_speed", "min_phase_s", "blend_s",
-                         "base_weight", "posture_weight", "leg_weight", "continuity_weight"},
+                        {"feet", "contact_height", "contact_speed", "min_phase_s",
+                         "base_weight", "posture_weight", "leg_weight", "continuity_weight", "lowpass_hz", "balance",
+                         "zmp_margin_m", "balance_iterations"},
                         [&](const std::string& ck, const YAML::Node& cv) {
                   const std::string key = "cleanup." + ck;
                   if (ck == "feet") c.feet = names(cv, key);
                   if (ck == "contact_height") c.contact_height = number(cv, key);
                   if (ck == "contact_speed") c.contact_speed = number(cv, key);
                   if (ck == "min_phase_s") c.min_phase_s = number(cv, key);
-                  if (ck == "blend_s") c.blend_s = number(cv, key);
                   if (ck == "base_weight") c.base_weight = weight(cv, key);
                   if (ck == "posture_weight") c.posture_weight = weight(cv, key);
                   if (ck == "leg_weight") c.leg_weight = weight(cv, key);
                   if (ck == "continuity_weight") c.continuity_weight = number(cv, key);
+                  if (ck == "lowpass_hz") c.lowpass_hz = number(cv, key);
+                  if (ck == "balance") c.balance = boolean(cv, key);
+                  if (ck == "zmp_margin_m") c.zmp_margin_m = number(cv, key);
+                  if (ck == "balance_iterations") c.balance_iterations = integer(cv, key);
                   try {
                     c.validate();
                   } catch (const std::invalid_argument& e) {

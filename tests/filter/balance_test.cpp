@@ -313,5 +313,76 @@ TEST(Balance, ASoleLandsFlatOnlyOnceTheReferenceHasItFlat) {
   EXPECT_EQ(foot_flat.changed, 1);
 }
 
+// Rolling soles: the filter's right sole stands flat (a face link); the reference has the
+// same sole on its toes, heel 0.2 rad up, and lifts it 0.1 s later (push-off). The face
+// becomes an edge link along the toe edge, marked rolling, so the sole can hinge there.
+struct Roll {
+  int changed = 0;
+  VirtualLink before, after;
+};
+
+Roll pushOff(double roll_tilt_rad, bool lifts_soon) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const ModelInfo& info = model->info();
+  BalanceOptions options;
+  options.roll_tilt_rad = roll_tilt_rad;
+  BalanceLayer layer(*model, options);
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
+  Eigen::VectorXd q = info.neutralConfiguration();
+  q[info.configurationIndex(info.findJoint("l_knee"))] = 1.0;  // left foot up
+  q[2] = standingBaseHeight(*model, q) - 0.001;                // the right sole 1 mm in, flat
+  ReferenceFrame now(info.nq, info.nv);
+  now.q = q;
+  now.q[info.configurationIndex(info.findJoint("r_ankle_pitch"))] = 0.2;  // heel up
+  now.q[2] = standingBaseHeight(*model, now.q);
+  ReferenceFrame later = now;
+  later.time_s = 0.1;
+  later.q[info.configurationIndex(info.findJoint("r_knee"))] = 1.0;  // the right foot up
+  later.q[info.configurationIndex(info.findJoint("l_knee"))] = 0.0;
+  later.q[2] = standingBaseHeight(*model, later.q);
+  if (lifts_soon) {
+    layer.pushPreview(*model, now);
+    layer.pushPreview(*model, later);
+  }
+  layer.prepare(*model, now, 1e-3);
+  model->setState(q, v0);
+  ContactList candidates(64);
+  model->detectContacts(candidates);
+  VirtualLinkSet links(ContactOptions{}, info.nv);
+  std::uint32_t status = 0;
+  links.update(*model, candidates, status);
+  Roll r;
+  const int foot = info.findBody("r_foot");
+  for (int i = 0; i < links.size(); ++i)
+    if (links[i].body == foot) r.before = links[i];
+  r.changed = layer.rollSoles(links);
+  for (int i = 0; i < links.size(); ++i)
+    if (links[i].body == foot) r.after = links[i];
+  return r;
+}
+
+TEST(Balance, ASolePushingOffRollsOnItsToeEdge) {
+  const Roll r = pushOff(0.1, true);
+  ASSERT_EQ(r.before.kind, ContactKind::kFace) << "the flat sole holds a face";
+  EXPECT_EQ(r.changed, 1);
+  EXPECT_EQ(r.after.kind, ContactKind::kEdge);
+  EXPECT_TRUE(r.after.rolling);
+  // The edge: across the sole at its front (the toe), as long as the sole is wide.
+  const Eigen::Vector3d edge_B = r.after.X_BC.translation();
+  EXPECT_NEAR(edge_B.x(), r.before.X_BC.translation().x() + r.before.support_max.x(), 1e-9);
+  EXPECT_NEAR(r.after.support_max.x() - r.after.support_min.x(),
+              r.before.support_max.y() - r.before.support_min.y(), 1e-9);
+  EXPECT_NEAR(std::fabs(r.after.X_BC.linear().col(0).dot(r.before.X_BC.linear().col(1))), 1.0, 1e-9);
+  // The anchor stays on the ground where the face's toe edge was.
+  EXPECT_NEAR(r.after.X_WA.translation().z(), r.before.X_WA.translation().z(), 1e-9);
+}
+
+TEST(Balance, ASoleKeepsItsFaceWhenTheReferenceDoesNotLiftItOrRollingIsOff) {
+  EXPECT_EQ(pushOff(0.1, false).changed, 0);  // heel up, but no lift in the preview
+  const Roll off = pushOff(0.0, true);
+  EXPECT_EQ(off.changed, 0);
+  EXPECT_EQ(off.after.kind, ContactKind::kFace);
+}
+
 }  // namespace
 }  // namespace dynfilter

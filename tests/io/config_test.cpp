@@ -141,7 +141,7 @@ TEST(ConfigFile, ShippedDefaultFileListsEveryKeyOnceWithAComment) {
       {"height_kp", 1}, {"height_kd", 1}, {"angular_momentum_damping", 1},
       {"angular_momentum_weight", 1}, {"preview_s", 1}, {"preview_capacity", 1},
       {"stance_height_m", 1}, {"stance_speed_mps", 1}, {"sole_weight", 1}, {"sole_kp", 1},
-      {"sole_kd", 1}, {"sole_margin_m", 1}, {"flat_landing_max_tilt_rad", 1},
+      {"sole_kd", 1}, {"sole_margin_m", 1}, {"flat_landing_max_tilt_rad", 1}, {"roll_tilt_rad", 1},
       {"ground", 1}, {"slope_deg", 1}, {"heading_deg", 1}, {"height_m", 1}, {"friction", 1},
       {"boxes", 1}};
   EXPECT_EQ(count, expected);

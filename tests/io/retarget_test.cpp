@@ -500,7 +500,9 @@ TEST(ReferenceCleanup, ShippedClipsHaveStillFeetAndNoJumps) {
     const CleanupResult r = cleanupReference(clip.result.motion, *model, clip.mapping.cleanup);
     for (const FootReport& f : r.report.feet) {
       EXPECT_GT(f.stance_runs, 0) << f.link;
-      EXPECT_LT(f.skate_after_m, 1e-3) << f.link;
+      // Measured: at most 1.4 mm (the jump's left foot) since the clean-up low-passes its
+      // answer and solves again; the target is 5 mm per stance.
+      EXPECT_LT(f.skate_after_m, 2e-3) << f.link;
       EXPECT_LT(f.penetration_after_m, 4e-3) << f.link;
     }
     EXPECT_EQ(r.report.joints_outside_after, 0);

@@ -118,6 +118,14 @@ class BalanceLayer {
   /// link's stabilisation brings the sole down. Returns the links changed. No allocation.
   int flattenLandings(const IDynamicsModel& model, VirtualLinkSet& links) const;
 
+  /// Rolling soles (BalanceOptions::roll_tilt_rad): where the reference (at the last
+  /// prepare()) tilts a sole from its surface by more than roll_tilt_rad, the sole's held
+  /// face link becomes an edge link on the rectangle's edge the reference stays on (the
+  /// side its sole normal leans to), so the sole can hinge there (heel-off, push-off), and
+  /// the sole's links are marked rolling (no upgrade to a face) until the reference's sole
+  /// is within half that tilt. Returns the links changed. No allocation.
+  int rollSoles(VirtualLinkSet& links) const;
+
   const BalanceState& state() const { return state_; }
   /// The reference's contact schedule at the last prepare(): bit b set when the reference
   /// has body b within stance_height_m of the environment and slower than
@@ -128,6 +136,7 @@ class BalanceLayer {
 
  private:
   static constexpr int kMaxSupport = 24;  // hull vertices of one support polygon
+  std::uint64_t lifting_soon_ = 0;  // bodies in stance now that the preview lifts within 0.25 s
   struct Sample {
     double t = 0.0;
     Eigen::Vector3d c = Eigen::Vector3d::Zero(), cdot = Eigen::Vector3d::Zero();

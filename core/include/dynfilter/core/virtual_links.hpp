@@ -55,6 +55,8 @@ struct VirtualLink {
   bool reference_stance = false;
   double release_elapsed_s = 0.0;
   double release_start_force_n = 0.0;
+  /// The sole rolls with the reference (heel-off): no upgrade to a face while set.
+  bool rolling = false;
 };
 
 /// Indices of the constrained axes of a link kind, in A's [x, y, z, rx, ry, rz].
@@ -91,6 +93,13 @@ class VirtualLinkSet {
   /// X_WB X_BC and X_WA is the link error its stabilisation removes. Marks it created.
   void makeFace(int i, const Eigen::Isometry3d& X_BC, const Eigen::Isometry3d& X_WA,
                 const Eigen::Vector2d& support_min, const Eigen::Vector2d& support_max);
+  /// Turns link @p i into an edge link along the x axis of @p X_BC / @p X_WA (as makeFace),
+  /// its support [@p x_min, @p x_max] along that edge (m), and marks it rolling: a sole
+  /// that hinges on that edge. Marks it created.
+  void makeRollingEdge(int i, const Eigen::Isometry3d& X_BC, const Eigen::Isometry3d& X_WA, double x_min,
+                       double x_max);
+  /// Sets or clears link @p i's rolling flag (VirtualLink::rolling).
+  void setRolling(int i, bool rolling) { links_[static_cast<std::size_t>(i)].rolling = rolling; }
   /// Total constrained rows N_C.
   int numRows() const;
 

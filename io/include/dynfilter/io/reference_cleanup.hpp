@@ -6,6 +6,8 @@
 /// joint inside the model's limits; the change is reported.
 ///
 /// Method:
+///  - First, the input's configurations are low-passed (lowpass_hz): the schedule, the foot
+///    targets and the posture all come from the smoothed motion.
 ///  - Feet: the links named in ReferenceCleanupOptions::feet, or else the bodies that touch
 ///    the ground when the model stands at its neutral configuration (standingBaseHeight).
 ///    Sole points: the contact points of that stance, in the foot's frame.
@@ -14,23 +16,39 @@
 ///  - Schedule: frame k is stance for foot f when the lowest sole point is at most
 ///    contact_height · L above the ground and the sole's centre moves horizontally slower
 ///    than contact_speed · L per second (central differences); runs of stance or swing
-///    shorter than min_phase_s are merged into their neighbours.
+///    shorter than min_phase_s are merged into their neighbours. Support completion:
+///    where the CoM (ground projection) lies more than 2 cm outside the stance soles, a slow
+///    foot up to 3 · contact_height · L above the ground is in stance too (lowest first) —
+///    a figure retargeted with a wide stance stands with one foot hovering a few
+///    centimetres (the CMU walk's last 1.1 s: the left foot 5 cm up, the CoM 35 cm outside
+///    the right sole; before, the filter had to stand on the right foot alone).
 ///  - Stance pose of a run: the foot flat (its neutral-stance orientation turned by the
 ///    run's mean heading about the ground normal), its sole centre at the run's mean
-///    horizontal position, the sole on the ground. Over blend_s before and after the run,
-///    the foot's target moves smoothly between the reference pose and the stance pose
-///    (over at most half the swing between two runs, so the target stays continuous).
+///    horizontal position, the sole on the ground. In a swing the target is the
+///    reference's foot corrected (sole centre moved, orientation turned) by the correction
+///    that ended the last stance, blended (smoothstep) over the whole swing into the one
+///    that starts the next, so that the target is continuous and accelerates as little as
+///    the swing allows; before the first and after the last stance, that stance's
+///    correction. (Ramps of 80 ms at each end of a stance, as before, put 30–450 m/s² into
+///    the base where a leg could not absorb them.)
 ///  - Per frame, PoseIk solves for the whole configuration: the feet at their targets
 ///    (stance pose or blend; swing feet at the reference pose), every other coordinate
 ///    held at the reference (base weight base_weight, joints posture_weight, a lower weight
 ///    for the joints between the base and a foot so that the legs take up the change), all
 ///    within the joint limits; a continuity term (continuity_weight) holds each frame's
 ///    change near the reference's own change, so the answer follows one branch over the
-///    clip. Velocities and accelerations are estimated again.
+///    clip. The answer is low-passed again (lowpass_hz) and solved once more with it as the
+///    posture, so that the feet are exact. Velocities and accelerations are estimated again.
+///  - Balance (ReferenceCleanupOptions::balance): where the clip's zero-moment point leaves
+///    the support of its stance soles (shrunk by zmp_margin_m), the base is moved along the
+///    ground by the shift δ with δ − δ̈/ω² = the ZMP's distance to the support (whole clip,
+///    past and future: reference_balance.hpp) and the IK solved again with the same foot
+///    targets; repeated up to balance_iterations times. The base and its upper body carry
+///    the shift; the legs bend to keep the feet.
 ///  - Report: per joint max and RMS change, overall RMS; per foot the stance skate (largest
-///    horizontal distance of the sole centre from its position at the start of the stance
-///    run) and the largest penetration of a sole point, before and after; limit excess
-///    before and after.
+///    horizontal slide of a sole point while it touches the ground, within 5 mm, during a
+///    stance run) and the largest penetration of a sole point, before and after; limit
+///    excess before and after.
 
 #include <string>
 #include <vector>
@@ -41,11 +59,14 @@
 namespace dynfilter::io {
 
 struct ReferenceCleanupOptions {
+  /// Zero-phase low-pass of the input's configurations before anything else
+  /// (lowPassConfigurations, Hz); 0: off. Above ~10 Hz retargeted mocap is marker noise and
+  /// IK jitter, which become accelerations of 10–100 m/s² in the reference.
+  double lowpass_hz = 8.0;
   std::vector<std::string> feet;  ///< foot links; empty: found from the neutral stance
   double contact_height = 0.04;   ///< sole height threshold, fraction of the leg length L
   double contact_speed = 0.4;     ///< horizontal sole speed threshold, L per second
   double min_phase_s = 0.08;      ///< shorter stance or swing runs are merged (s)
-  double blend_s = 0.08;          ///< foot target transition before / after a stance (s)
   double base_weight = 1.0;       ///< IK weight holding the base at the reference
   double posture_weight = 1.0;    ///< IK weight holding joints (not on a leg) at the reference
   double leg_weight = 0.05;       ///< IK weight holding the leg joints at the reference
@@ -53,6 +74,11 @@ struct ReferenceCleanupOptions {
   /// term, about the previous frame's answer moved by the reference's own change); 0: off
   double continuity_weight = 1.0;
   int smoothing_window = 7;       ///< estimateDerivatives window (odd, ≥ 3)
+  /// Balance stage: the zero-moment point brought into the stance soles' support by moving
+  /// the base along the ground, the feet kept (reference_balance.hpp)
+  bool balance = false;
+  double zmp_margin_m = 0.02;     ///< the support shrunk by this towards each sole's centre (m)
+  int balance_iterations = 4;     ///< at most this many shift-and-solve rounds
 
   /// @throws std::invalid_argument naming the option on a bad value.
   void validate() const;
@@ -87,6 +113,12 @@ struct CleanupReport {
   int joints_outside_before = 0, joints_outside_after = 0;  ///< joints leaving a limit
   double limit_excess_rms_before_rad = 0.0, limit_excess_rms_after_rad = 0.0;  ///< all joints
   double leg_length_m = 0.0;
+  /// ZMP against the stance soles' support (shrunk by zmp_margin_m), before and after the
+  /// balance stage: frames outside, largest and RMS (over all frames) distance (m)
+  int zmp_frames_outside_before = 0, zmp_frames_outside_after = 0;
+  double zmp_outside_max_before_m = 0.0, zmp_outside_max_after_m = 0.0;
+  double zmp_outside_rms_before_m = 0.0, zmp_outside_rms_after_m = 0.0;
+  double com_shift_max_m = 0.0, com_shift_rms_m = 0.0;  ///< the base moved along the ground
 };
 
 struct CleanupResult {
@@ -107,8 +139,8 @@ ContactSchedule findContactSchedule(const ReferenceMotion& motion, IDynamicsMode
 CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& model,
                                const ReferenceCleanupOptions& options);
 
-/// Stance-foot skate of a motion against a schedule: per foot the worst horizontal
-/// distance of the sole centre from where its stance run began (m), and the deepest sole
+/// Stance-foot skate of a motion against a schedule: per foot the worst horizontal slide
+/// of a sole point while it touches the ground (within 5 mm) in a stance run (m), and the deepest sole
 /// point below the ground (m, ≥ 0). Changes the model's state.
 std::vector<FootReport> measureFeet(const ReferenceMotion& motion, IDynamicsModel& model,
                                     const ContactSchedule& schedule);

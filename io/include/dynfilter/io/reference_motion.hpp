@@ -75,4 +75,14 @@ ReferenceMotion readReferenceMotion(const std::string& path, const ModelInfo& in
 void estimateDerivatives(std::vector<ReferenceFrame>& frames, bool floating_base,
                          int smoothing_window, bool fill_velocities, bool fill_accelerations);
 
+/// Zero-phase low-pass of the configurations (q only): each frame becomes the Gaussian-
+/// weighted mean of its neighbours within 3σ, σ = 0.1325 / @p cutoff_hz (the Gaussian's
+/// −3 dB frequency is the cutoff), with the kernel renormalised where it reaches past the
+/// clip's ends. Joint coordinates and the base position are averaged directly; the base
+/// orientation as R_k exp(Σ w_j log(R_kᵀ R_j)). Motion capture is commonly filtered at
+/// 6–10 Hz: above that its second derivative is mostly marker noise. Time stamps are
+/// kept; v and v̇ are not touched (estimate them again).
+/// @throws std::invalid_argument on cutoff_hz ≤ 0 or frames of different sizes.
+void lowPassConfigurations(std::vector<ReferenceFrame>& frames, bool floating_base, double cutoff_hz);
+
 }  // namespace dynfilter::io

@@ -1,0 +1,223 @@
+// The reference's centroidal feasibility (dynfilter/io/reference_balance.hpp), the clean-up's
+// balance stage and support completion (reference_cleanup.hpp), and the low-pass of
+// configurations (reference_motion.hpp): closed forms on the mini humanoid.
+
+#include <cmath>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "dynfilter/core/balance.hpp"
+#include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/io/reference_balance.hpp"
+#include "dynfilter/io/reference_cleanup.hpp"
+#include "dynfilter/io/reference_motion.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
+#include "support/test_support.hpp"
+
+namespace dynfilter::io {
+namespace {
+
+std::unique_ptr<IDynamicsModel> mini() {
+  return test::makeModel("dart", urdf::loadUrdfFile(test::sourcePath("tests/models/mini_humanoid.urdf")),
+                         ModelOptions{});
+}
+
+Eigen::Vector3d comOf(IDynamicsModel& model, const Eigen::VectorXd& q) {
+  const ModelInfo& info = model.info();
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
+  Eigen::MatrixXd A(info.nv, info.nv);
+  model.setState(q, v0);
+  model.massMatrix(A);
+  return centroidalState(A, q, v0, info.total_mass).c_W;
+}
+
+TEST(ReferenceBalance, ShiftSolvesItsDifferenceEquation) {
+  const double dt = 1.0 / 120.0, omega = 3.3;
+  // A constant excess is met by the same constant shift.
+  const std::vector<Eigen::Vector2d> constant(50, Eigen::Vector2d(0.04, -0.02));
+  for (const Eigen::Vector2d& d : comShiftForZmp(constant, dt, omega)) EXPECT_LT((d - constant[0]).norm(), 1e-12);
+  // Any excess: δ_k − (δ_{k+1} − 2δ_k + δ_{k−1})/(ω²Δt²) = e_k, zero slope at the ends.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-0.1, 0.1);
+  std::vector<Eigen::Vector2d> e(300);
+  for (Eigen::Vector2d& x : e) x = Eigen::Vector2d(u(rng), u(rng));
+  const std::vector<Eigen::Vector2d> d = comShiftForZmp(e, dt, omega);
+  const double a = 1.0 / (omega * omega * dt * dt);
+  for (std::size_t k = 0; k < e.size(); ++k) {
+    const Eigen::Vector2d prev = k > 0 ? d[k - 1] : d[k], next = k + 1 < e.size() ? d[k + 1] : d[k];
+    EXPECT_LT((d[k] - a * (next - 2.0 * d[k] + prev) - e[k]).norm(), 1e-10) << k;
+  }
+  // A single pulse spreads both ways, symmetric about it and decaying as e^{−ω|t|}.
+  std::vector<Eigen::Vector2d> pulse(601, Eigen::Vector2d::Zero());
+  pulse[300] = Eigen::Vector2d(1.0, 0.0);
+  const std::vector<Eigen::Vector2d> s = comShiftForZmp(pulse, dt, omega);
+  EXPECT_NEAR(s[250].x(), s[350].x(), 1e-12);
+  EXPECT_NEAR(s[360].x() / s[300].x(), std::exp(-omega * 60 * dt), 0.01);
+  EXPECT_THROW(comShiftForZmp(e, 0.0, omega), std::invalid_argument);
+}
+
+// Standing still, the ZMP is the CoM's ground projection; accelerating the whole figure
+// along x by a (no rotation, L = 0) moves it to c − h a / g.
+TEST(ReferenceBalance, ZmpOfAStillAndOfAnAcceleratingFigure) {
+  auto model = mini();
+  const ModelInfo& info = model->info();
+  Eigen::VectorXd q0 = info.neutralConfiguration();
+  q0[2] = standingBaseHeight(*model, q0);
+  for (const double a : {0.0, 1.5}) {
+    SCOPED_TRACE(a);
+    ReferenceMotion motion;
+    for (int k = 0; k < 61; ++k) {
+      ReferenceFrame f(info.nq, info.nv);
+      f.time_s = 0.01 * k;
+      f.q = q0;
+      f.q[0] += 0.5 * a * f.time_s * f.time_s;
+      motion.frames.push_back(f);
+    }
+    estimateDerivatives(motion.frames, true, 7, true, true);
+    // Support: a large square under the figure, so that the ZMP is inside.
+    std::vector<std::vector<Eigen::Vector3d>> support(motion.frames.size());
+    for (auto& s : support)
+      for (const double x : {-1.0, 1.0})
+        for (const double y : {-1.0, 1.0}) s.emplace_back(x, y, 0.0);
+    const std::vector<ZmpSample> z = zmpAgainstSupport(motion, *model, support);
+    for (std::size_t k = 0; k < z.size(); ++k) {
+      const Eigen::Vector3d c = comOf(*model, motion.frames[k].q);
+      ASSERT_TRUE(z[k].defined) << k;
+      EXPECT_NEAR(z[k].com_height_m, c.z(), 1e-9);
+      EXPECT_NEAR(z[k].zmp.x(), c.x() - c.z() * a / 9.81, 1e-6) << k;
+      EXPECT_NEAR(z[k].zmp.y(), c.y(), 1e-6) << k;
+      EXPECT_NEAR(z[k].vertical_load, 1.0, 1e-6);
+      EXPECT_NEAR(z[k].outside_m, 0.0, 1e-12);
+    }
+    // No support: not defined.
+    const std::vector<ZmpSample> none =
+        zmpAgainstSupport(motion, *model, std::vector<std::vector<Eigen::Vector3d>>(motion.frames.size()));
+    for (const ZmpSample& s : none) EXPECT_FALSE(s.defined);
+  }
+}
+
+// A still figure whose base stands 0.21 m ahead of its feet (legs slanted, upper body
+// upright): its CoM, and so its ZMP, is in front of the toes. The balance stage moves the
+// base back until the ZMP is over the soles; the feet do not move.
+TEST(ReferenceCleanup, BalanceStageBringsTheZmpOverTheFeet) {
+  auto model = mini();
+  const ModelInfo& info = model->info();
+  const double b = 0.35;
+  Eigen::VectorXd q = info.neutralConfiguration();
+  for (const char* side : {"l", "r"}) {
+    q[info.configurationIndex(info.findJoint(std::string("coxa_") + side + "_y"))] = b;
+    q[info.configurationIndex(info.findJoint(std::string("talo_") + side + "_y"))] = -b;
+  }
+  q[2] = standingBaseHeight(*model, q);
+  ReferenceMotion motion;
+  for (int k = 0; k < 81; ++k) {
+    ReferenceFrame f(info.nq, info.nv);
+    f.time_s = 0.01 * k;
+    f.q = q;
+    motion.frames.push_back(f);
+  }
+  estimateDerivatives(motion.frames, true, 7, true, true);
+  ReferenceCleanupOptions options;
+  options.balance = false;
+  const CleanupResult off = cleanupReference(motion, *model, options);
+  EXPECT_EQ(off.report.zmp_frames_outside_before, 81);
+  EXPECT_GT(off.report.zmp_outside_max_before_m, 0.03);
+  EXPECT_EQ(off.report.zmp_frames_outside_after, 81);
+  EXPECT_EQ(off.report.com_shift_max_m, 0.0);
+  options.balance = true;
+  const CleanupResult on = cleanupReference(motion, *model, options);
+  EXPECT_EQ(on.report.zmp_frames_outside_before, 81);
+  EXPECT_LT(on.report.zmp_outside_max_after_m, 2e-3);
+  EXPECT_GT(on.report.com_shift_max_m, 0.03);
+  for (const FootReport& f : on.report.feet) {
+    EXPECT_LT(f.skate_after_m, 1e-3) << f.link;
+    EXPECT_LT(f.penetration_after_m, 1e-3) << f.link;
+  }
+  // The CoM over the soles (x in [−0.06, 0.12] about the ankles, less the 2 cm margin).
+  const Eigen::Vector3d c = comOf(*model, on.motion.frames[40].q);
+  model->setState(on.motion.frames[40].q, Eigen::VectorXd::Zero(info.nv));
+  const double ankle_x = model->bodyPose(info.findBody("sole_l")).translation().x();
+  EXPECT_LT(c.x() - ankle_x, 0.10 + 2e-3);
+  EXPECT_GT(c.x() - ankle_x, -0.04);
+  model->setState(off.motion.frames[40].q, Eigen::VectorXd::Zero(info.nv));
+  EXPECT_NEAR(model->bodyPose(info.findBody("sole_l")).translation().x(), ankle_x, 1e-3);
+}
+
+// Both feet still; the left one 5 cm up (hip, knee and ankle bent, sole level), the CoM
+// between the feet: the left foot is in stance too. 11.5 cm up it is not.
+TEST(ReferenceCleanup, AHoveringFootUnderTheCentreOfMassIsInStance) {
+  auto model = mini();
+  const ModelInfo& info = model->info();
+  for (const double lift_m : {0.05, 0.115}) {
+    SCOPED_TRACE(lift_m);
+    const double a = std::acos(1.0 - lift_m / 0.62);
+    Eigen::VectorXd q = info.neutralConfiguration();
+    q[2] = standingBaseHeight(*model, q);
+    q[info.configurationIndex(info.findJoint("coxa_l_y"))] = -a;
+    q[info.configurationIndex(info.findJoint("genu_l"))] = 2.0 * a * 0.3 / 0.31;
+    q[info.configurationIndex(info.findJoint("talo_l_y"))] = -a;
+    ReferenceMotion motion;
+    for (int k = 0; k < 61; ++k) {
+      ReferenceFrame f(info.nq, info.nv);
+      f.time_s = 0.01 * k;
+      f.q = q;
+      motion.frames.push_back(f);
+    }
+    const ContactSchedule s = findContactSchedule(motion, *model, ReferenceCleanupOptions{});
+    ASSERT_EQ(s.links, (std::vector<std::string>{"sole_l", "sole_r"}));
+    for (const auto& row : s.stance) {
+      EXPECT_EQ(row[0], lift_m < 0.1 ? 1 : 0);
+      EXPECT_EQ(row[1], 1);
+    }
+  }
+}
+
+TEST(LowPassConfigurations, KeepsLinesAndDampsNoiseAsItsGaussian) {
+  const int n = 1001;
+  const double dt = 0.001, cutoff = 8.0, sigma = 0.1325 / cutoff;
+  std::vector<ReferenceFrame> frames(n, ReferenceFrame(3, 3));
+  for (int k = 0; k < n; ++k) {
+    const double t = k * dt;
+    frames[static_cast<std::size_t>(k)].time_s = t;
+    frames[static_cast<std::size_t>(k)].q << 0.7, 0.3 + 2.0 * t, 0.01 * std::sin(2.0 * M_PI * 30.0 * t);
+  }
+  lowPassConfigurations(frames, false, cutoff);
+  const double gain = std::exp(-0.5 * std::pow(2.0 * M_PI * 30.0 * sigma, 2));
+  for (int k = 0; k < n; ++k) {
+    const double t = k * dt;
+    const Eigen::VectorXd& q = frames[static_cast<std::size_t>(k)].q;
+    EXPECT_NEAR(q[0], 0.7, 1e-12);
+    if (k < 60 || k > n - 61) continue;  // the kernel reaches past the ends there
+    EXPECT_NEAR(q[1], 0.3 + 2.0 * t, 1e-9) << k;
+    EXPECT_NEAR(q[2], 0.01 * gain * std::sin(2.0 * M_PI * 30.0 * t), 2e-5) << k;
+  }
+  EXPECT_THROW(lowPassConfigurations(frames, false, 0.0), std::invalid_argument);
+}
+
+// A floating base turning at a constant rate keeps turning at that rate.
+TEST(LowPassConfigurations, BaseOrientationAveragedOnTheGroup) {
+  std::vector<ReferenceFrame> frames(201, ReferenceFrame(7, 6));
+  for (int k = 0; k < 201; ++k) {
+    const double yaw = 0.02 * k;
+    const Eigen::Quaterniond Q(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                               Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()));
+    frames[static_cast<std::size_t>(k)].time_s = 0.005 * k;
+    frames[static_cast<std::size_t>(k)].q << 0.0, 0.0, 1.0, Q.w(), Q.x(), Q.y(), Q.z();
+  }
+  const std::vector<ReferenceFrame> in = frames;
+  lowPassConfigurations(frames, true, 8.0);
+  for (int k = 30; k < 170; ++k) {
+    const Eigen::VectorXd& a = in[static_cast<std::size_t>(k)].q;
+    const Eigen::VectorXd& b = frames[static_cast<std::size_t>(k)].q;
+    // The mean of a uniform rotation about z, taken in R_k's frame, is R_k rotated about
+    // z by the kernel's (symmetric) mean angle 0 — up to the curvature of the log map.
+    EXPECT_LT(std::fabs(std::fabs(Eigen::Quaterniond(a[3], a[4], a[5], a[6]).dot(Eigen::Quaterniond(b[3], b[4], b[5], b[6]))) - 1.0), 1e-6) << k;
+    EXPECT_NEAR(b.segment<4>(3).norm(), 1.0, 1e-12);
+  }
+}
+
+}  // namespace
+}  // namespace dynfilter::io
