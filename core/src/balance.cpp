@@ -204,8 +204,9 @@ int BalanceLayer::rollSoles(VirtualLinkSet& links) const {
       if (link.rolling) links.setRolling(i, false);
       continue;
     }
-    if (tilt <= options_.roll_tilt_rad) continue;
-    if (link.kind == ContactKind::kFace && (link.body >= 64 || ((lifting_soon_ >> link.body) & 1u) == 0)) continue;
+    // Only a sole the reference lifts soon rolls: a reference sole that stands tilted (a
+    // retargeted ankle) is flattened, not rolled on.
+    if (tilt <= options_.roll_tilt_rad || link.body >= 64 || ((lifting_soon_ >> link.body) & 1u) == 0) continue;
     if (link.kind != ContactKind::kFace) {
       if (!link.rolling) links.setRolling(i, true);
       continue;

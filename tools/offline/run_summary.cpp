@@ -53,7 +53,7 @@ void RunSummary::add(const FilterOutput& out) {
     max_normal_force_n_ = std::max(max_normal_force_n_, f);
     pulling |= f < 0.0;
   }
-  frames_with_pulling_ += pulling;
+  ticks_with_pulling_ += pulling;
 }
 
 void RunSummary::print(std::FILE* s, int frames, double motion_s, double wall_s) const {
@@ -67,8 +67,8 @@ void RunSummary::print(std::FILE* s, int frames, double motion_s, double wall_s)
                max_residual_, max_base_residual_n_,
                max_base_residual_n_ / (info_.total_mass * 9.81));
   if (any_contact_)
-    std::fprintf(s, "contact normal force  min %.1f N, max %.1f N; %d frames with a pulling contact\n",
-                 min_normal_force_n_, max_normal_force_n_, frames_with_pulling_);
+    std::fprintf(s, "contact normal force  min %.1f N, max %.1f N; %d ticks with a pulling contact\n",
+                 min_normal_force_n_, max_normal_force_n_, ticks_with_pulling_);
   else
     std::fprintf(s, "contact normal force  no contact\n");
   std::fprintf(s, "max penetration       %.2f mm\n", 1e3 * max_penetration_m_);

@@ -37,7 +37,7 @@ class RunSummary {
   double max_penetration_m_ = 0.0;
   double tick_time_sum_s_ = 0.0;
   unsigned status_union_ = 0;
-  int frames_with_pulling_ = 0;
+  int ticks_with_pulling_ = 0;
 };
 
 }  // namespace dynfilter::tools

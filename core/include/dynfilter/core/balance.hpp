@@ -119,8 +119,8 @@ class BalanceLayer {
   int flattenLandings(const IDynamicsModel& model, VirtualLinkSet& links) const;
 
   /// Rolling soles (BalanceOptions::roll_tilt_rad): where the reference (at the last
-  /// prepare()) tilts a sole from its surface by more than roll_tilt_rad, the sole's held
-  /// face link becomes an edge link on the rectangle's edge the reference stays on (the
+  /// prepare()) tilts a sole from its surface by more than roll_tilt_rad and its preview
+  /// lifts that sole within 0.25 s (push-off), the sole's held face link becomes an edge link on the rectangle's edge the reference stays on (the
   /// side its sole normal leans to), so the sole can hinge there (heel-off, push-off), and
   /// the sole's links are marked rolling (no upgrade to a face) until the reference's sole
   /// is within half that tilt. Returns the links changed. No allocation.
