@@ -75,7 +75,8 @@ struct ReferenceCleanupOptions {
   double continuity_weight = 1.0;
   int smoothing_window = 7;       ///< estimateDerivatives window (odd, ≥ 3)
   /// Balance stage: the zero-moment point brought into the stance soles' support by moving
-  /// the base along the ground, the feet kept (reference_balance.hpp)
+  /// the base along the ground, the feet kept (reference_balance.hpp). Off by default: on
+  /// the CMU clips it does not converge (docs/balance.md §7)
   bool balance = false;
   double zmp_margin_m = 0.02;     ///< the support shrunk by this towards each sole's centre (m)
   int balance_iterations = 4;     ///< at most this many shift-and-solve rounds
