@@ -204,30 +204,25 @@ int BalanceLayer::rollSoles(VirtualLinkSet& links) const {
       if (link.rolling) links.setRolling(i, false);
       continue;
     }
-    // Only a sole the reference lifts soon rolls: a reference sole that stands tilted (a
-    // retargeted ankle) is flattened, not rolled on.
-    if (tilt <= options_.roll_tilt_rad || link.body >= 64 || ((lifting_soon_ >> link.body) & 1u) == 0) continue;
+    // Only a heel-off rolls: a sole the reference lifts soon, tilted towards its toes (the
+    // normal leaning along the sole's x, forward by REP 103). A reference sole standing
+    // tilted otherwise (a retargeted ankle; a level sole on a slope, toes up downhill) is
+    // flattened, not rolled on.
+    const double dx = n_ref.dot(R_WA.col(0)), dy = n_ref.dot(R_WA.col(1));
+    if (tilt <= options_.roll_tilt_rad || dx <= std::fabs(dy) || link.body >= 64 ||
+        ((lifting_soon_ >> link.body) & 1u) == 0)
+      continue;
     if (link.kind != ContactKind::kFace) {
       if (!link.rolling) links.setRolling(i, true);
       continue;
     }
-    // The edge the reference stays on: the side its sole normal leans to, in A's xy.
-    const double dx = n_ref.dot(R_WA.col(0)), dy = n_ref.dot(R_WA.col(1));
+    // The edge the reference stays on: the toe edge, across the sole at its front.
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();  // edge frame in A (and C)
-    double lo = 0.0, hi = 0.0;
-    if (std::fabs(dx) >= std::fabs(dy)) {
-      // Along A's y, at x = max (dx > 0) or min: the edge frame's x is A's y.
-      const double mid_y = 0.5 * (link.support_min.y() + link.support_max.y());
-      T.translation() = Eigen::Vector3d(dx > 0 ? link.support_max.x() : link.support_min.x(), mid_y, 0.0);
-      T.linear() << 0, -1, 0, 1, 0, 0, 0, 0, 1;
-      lo = link.support_min.y() - mid_y;
-      hi = link.support_max.y() - mid_y;
-    } else {
-      const double mid_x = 0.5 * (link.support_min.x() + link.support_max.x());
-      T.translation() = Eigen::Vector3d(mid_x, dy > 0 ? link.support_max.y() : link.support_min.y(), 0.0);
-      lo = link.support_min.x() - mid_x;
-      hi = link.support_max.x() - mid_x;
-    }
+    // Along A's y at x = max: the edge frame's x is A's y.
+    const double mid_y = 0.5 * (link.support_min.y() + link.support_max.y());
+    T.translation() = Eigen::Vector3d(link.support_max.x(), mid_y, 0.0);
+    T.linear() << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+    const double lo = link.support_min.y() - mid_y, hi = link.support_max.y() - mid_y;
     links.makeRollingEdge(i, link.X_BC * T, link.X_WA * T, lo, hi);
     ++changed;
   }

@@ -249,12 +249,12 @@ int VirtualLinkSet::update(const IDynamicsModel& model, const ContactList& candi
     const int existing = findLink(body, object);
     if (existing >= 0) {
       VirtualLink& held = links_[static_cast<std::size_t>(existing)];
-      // A rolling sole keeps its edge unless the rest of the sole sinks into the surface.
-      bool sinks = false;
+      // A rolling sole keeps its edge unless the rest of the sole sinks into the surface:
+      // then it has landed and rolls no more (its points near the surface join next tick).
       if (held.rolling)
         for (const ContactCandidate& c : candidates)
-          sinks = sinks || (c.body == body && c.object == object && c.depth_m > kRollingSinkDepth);
-      if (static_cast<int>(fresh.kind) > static_cast<int>(held.kind) && (!held.rolling || sinks)) {  // upgrade
+          if (c.body == body && c.object == object && c.depth_m > kRollingSinkDepth) held.rolling = false;
+      if (static_cast<int>(fresh.kind) > static_cast<int>(held.kind) && !held.rolling) {  // upgrade
         held = fresh;
         ++created;
       }

@@ -321,7 +321,7 @@ struct Roll {
   VirtualLink before, after;
 };
 
-Roll pushOff(double roll_tilt_rad, bool lifts_soon) {
+Roll pushOff(double roll_tilt_rad, bool lifts_soon, double reference_ankle_pitch_rad = 0.2) {
   auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const ModelInfo& info = model->info();
   BalanceOptions options;
@@ -333,7 +333,7 @@ Roll pushOff(double roll_tilt_rad, bool lifts_soon) {
   q[2] = standingBaseHeight(*model, q) - 0.001;                // the right sole 1 mm in, flat
   ReferenceFrame now(info.nq, info.nv);
   now.q = q;
-  now.q[info.configurationIndex(info.findJoint("r_ankle_pitch"))] = 0.2;  // heel up
+  now.q[info.configurationIndex(info.findJoint("r_ankle_pitch"))] = reference_ankle_pitch_rad;  // > 0: heel up
   now.q[2] = standingBaseHeight(*model, now.q);
   ReferenceFrame later = now;
   later.time_s = 0.1;
@@ -379,6 +379,10 @@ TEST(Balance, ASolePushingOffRollsOnItsToeEdge) {
 
 TEST(Balance, ASoleKeepsItsFaceWhenTheReferenceDoesNotLiftItOrRollingIsOff) {
   EXPECT_EQ(pushOff(0.1, false).changed, 0);  // heel up, but no lift in the preview
+  // Toes up (as a level reference sole looks on a downhill slope), lifted soon: no roll.
+  const Roll toes_up = pushOff(0.1, true, -0.2);
+  EXPECT_EQ(toes_up.changed, 0);
+  EXPECT_EQ(toes_up.after.kind, ContactKind::kFace);
   const Roll off = pushOff(0.0, true);
   EXPECT_EQ(off.changed, 0);
   EXPECT_EQ(off.after.kind, ContactKind::kFace);

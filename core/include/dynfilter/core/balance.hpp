@@ -119,11 +119,13 @@ class BalanceLayer {
   int flattenLandings(const IDynamicsModel& model, VirtualLinkSet& links) const;
 
   /// Rolling soles (BalanceOptions::roll_tilt_rad): where the reference (at the last
-  /// prepare()) tilts a sole from its surface by more than roll_tilt_rad and its preview
-  /// lifts that sole within 0.25 s (push-off), the sole's held face link becomes an edge link on the rectangle's edge the reference stays on (the
-  /// side its sole normal leans to), so the sole can hinge there (heel-off, push-off), and
-  /// the sole's links are marked rolling (no upgrade to a face) until the reference's sole
-  /// is within half that tilt. Returns the links changed. No allocation.
+  /// prepare()) has a sole on its toes — tilted from its surface by more than roll_tilt_rad,
+  /// its normal leaning along the sole's +x (forward, REP 103) — and its preview lifts that
+  /// sole within 0.25 s (heel-off, push-off), the sole's held face link becomes an edge link
+  /// on the rectangle's front edge, so that the sole can hinge there, and the sole's links
+  /// are marked rolling (no upgrade to a face) until the reference's sole is within half
+  /// that tilt or the rest of the sole sinks 2 mm into the surface (it has landed).
+  /// Returns the links changed. No allocation.
   int rollSoles(VirtualLinkSet& links) const;
 
   const BalanceState& state() const { return state_; }

@@ -165,10 +165,11 @@ struct BalanceOptions {
   /// (rad) holds a face link over its whole sole at once, anchored flat on the surface
   /// about the touching point; the link's stabilisation brings the sole down flat. 0: off.
   double flat_landing_max_tilt_rad = 0.5;
-  /// Rolling soles (heel-off, push-off): while the reference's sole tilts from its surface
-  /// by more than this (rad), a held face link of that sole becomes an edge link along the
-  /// edge the reference stays on, the sole task follows the reference's tilt, and the link
-  /// does not upgrade back to a face until the reference's sole is flat again. 0: off.
+  /// Rolling soles (heel-off, push-off): while the reference has a sole on its toes, tilted
+  /// from its surface by more than this (rad), and lifts it within 0.25 s, a held face link
+  /// of that sole becomes an edge link along its front edge, the sole task follows the
+  /// reference's tilt, and the link does not upgrade back to a face until the reference's
+  /// sole is flat again or the sole lands (BalanceLayer::rollSoles). 0: off.
   double roll_tilt_rad = 0.1;
 };
 
