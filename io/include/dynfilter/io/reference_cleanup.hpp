@@ -17,8 +17,9 @@
 ///    contact_height · L above the ground and the sole's centre moves horizontally slower
 ///    than contact_speed · L per second (central differences); runs of stance or swing
 ///    shorter than min_phase_s are merged into their neighbours. Support completion:
-///    where the CoM (ground projection) lies more than 2 cm outside the stance soles, a slow
-///    foot up to 3 · contact_height · L above the ground is in stance too (lowest first) —
+///    where the CoM (ground projection) lies more than 2 cm outside the stance soles, a foot
+///    still over min_phase_s (slower than contact_speed · L / 2 in every direction) up to
+///    3 · contact_height · L above the ground is in stance too (lowest first) —
 ///    a figure retargeted with a wide stance stands with one foot hovering a few
 ///    centimetres (the CMU walk's last 1.1 s: the left foot 5 cm up, the CoM 35 cm outside
 ///    the right sole; before, the filter had to stand on the right foot alone).
@@ -29,17 +30,17 @@
 ///    that ended the last stance, blended (smoothstep) over the whole swing into the one
 ///    that starts the next, so that the target is continuous and accelerates as little as
 ///    the swing allows; before the first and after the last stance, that stance's
-///    correction. (Ramps of 80 ms at each end of a stance, as before, put 30–450 m/s² into
-///    the base where a leg could not absorb them.)
+///    correction. (Ramps of 80 ms at each end of a stance, used before, put 30–450 m/s²
+///    into the base where a leg could not absorb them.)
 ///  - Per frame, PoseIk solves for the whole configuration: the feet at their targets
-///    (stance pose or blend; swing feet at the reference pose), every other coordinate
+///    (the stance pose, or the corrected reference foot in a swing), every other coordinate
 ///    held at the reference (base weight base_weight, joints posture_weight, a lower weight
 ///    for the joints between the base and a foot so that the legs take up the change), all
 ///    within the joint limits; a continuity term (continuity_weight) holds each frame's
 ///    change near the reference's own change, so the answer follows one branch over the
 ///    clip. The answer is low-passed again (lowpass_hz) and solved once more with it as the
 ///    posture, so that the feet are exact. Velocities and accelerations are estimated again.
-///  - Balance (ReferenceCleanupOptions::balance): where the clip's zero-moment point leaves
+///  - Balance (ReferenceCleanupOptions::balance, off by default): where the clip's zero-moment point leaves
 ///    the support of its stance soles (shrunk by zmp_margin_m), the base is moved along the
 ///    ground by the shift δ with δ − δ̈/ω² = the ZMP's distance to the support (whole clip,
 ///    past and future: reference_balance.hpp) and the IK solved again with the same foot
@@ -48,7 +49,7 @@
 ///  - Report: per joint max and RMS change, overall RMS; per foot the stance skate (largest
 ///    horizontal slide of a sole point while it touches the ground, within 5 mm, during a
 ///    stance run) and the largest penetration of a sole point, before and after; limit
-///    excess before and after.
+///    excess before and after; the ZMP against the stance soles, before and after.
 
 #include <string>
 #include <vector>
