@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <stdexcept>
 
 #include "dynfilter/core/balance.hpp"
@@ -60,25 +58,17 @@ std::vector<ZmpSample> zmpAgainstSupport(const ReferenceMotion& motion, IDynamic
     F[k] = R_PW * (mass * ((cs[b].cdot_W - cs[a].cdot_W) / dt + Eigen::Vector3d(0.0, 0.0, kGravity)));
     M[k] = R_PW * ((cs[b].L_W - cs[a].L_W) / dt);
   }
-  const std::vector<Eigen::Vector3d> F_raw = F, M_raw = M;
+  // Smoothed by the clean-up's own zero-phase Gaussian (σ = kWrenchSigmaS): [F; L̇] as the
+  // "configuration" of time-stamped frames.
+  std::vector<ReferenceFrame> wrench(n, ReferenceFrame(6, 6));
   for (std::size_t k = 0; k < n; ++k) {
-    const double t = motion.frames[k].time_s;
-    Eigen::Vector3d f = Eigen::Vector3d::Zero(), m = Eigen::Vector3d::Zero();
-    double weight = 0.0;
-    for (std::size_t j = k; j < n && motion.frames[j].time_s - t <= 3.0 * kWrenchSigmaS; ++j) {
-      const double d = (motion.frames[j].time_s - t) / kWrenchSigmaS, w = std::exp(-0.5 * d * d);
-      f += w * F_raw[j];
-      m += w * M_raw[j];
-      weight += w;
-    }
-    for (std::size_t j = k; j-- > 0 && t - motion.frames[j].time_s <= 3.0 * kWrenchSigmaS;) {
-      const double d = (motion.frames[j].time_s - t) / kWrenchSigmaS, w = std::exp(-0.5 * d * d);
-      f += w * F_raw[j];
-      m += w * M_raw[j];
-      weight += w;
-    }
-    F[k] = f / weight;
-    M[k] = m / weight;
+    wrench[k].time_s = motion.frames[k].time_s;
+    wrench[k].q << F[k], M[k];
+  }
+  lowPassConfigurations(wrench, false, 0.1325 / kWrenchSigmaS);
+  for (std::size_t k = 0; k < n; ++k) {
+    F[k] = wrench[k].q.head<3>();
+    M[k] = wrench[k].q.tail<3>();
   }
   std::vector<ZmpSample> out(n);
   std::array<Eigen::Vector2d, kMaxSupportPoints> points;

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <cstdlib>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -30,7 +29,6 @@ constexpr double kTouchHeight = 0.005;
 // posture weights so that a stance foot stays within a fraction of a millimetre.
 constexpr double kFootPositionWeight = 1e3;
 constexpr double kFootOrientationWeight = 10.0;
-
 
 // A foot: its body and sole points (body frame) from the neutral stance.
 struct Foot {
@@ -192,13 +190,11 @@ ContactSchedule schedule(const ReferenceMotion& motion, IDynamicsModel& model, c
     const auto& c = centre[static_cast<std::size_t>(i)];
     for (int k = 0; k < n; ++k) {
       const int a = std::max(0, k - 1), b = std::min(n - 1, k + 1);
-      Eigen::Vector3d d = c[static_cast<std::size_t>(b)] - c[static_cast<std::size_t>(a)];
-      d -= d.dot(normal) * normal;
-      const double speed = d.norm() / std::max(s.time_s[static_cast<std::size_t>(b)] - s.time_s[static_cast<std::size_t>(a)], 1e-9);
+      const double span = std::max(s.time_s[static_cast<std::size_t>(b)] - s.time_s[static_cast<std::size_t>(a)], 1e-9);
+      const Eigen::Vector3d d = c[static_cast<std::size_t>(b)] - c[static_cast<std::size_t>(a)];
+      const double speed = (d - d.dot(normal) * normal).norm() / span;  // along the ground
       // Still: slow in every direction (a swing foot's apex is slow only for an instant).
-      const Eigen::Vector3d d3 = c[static_cast<std::size_t>(b)] - c[static_cast<std::size_t>(a)];
-      slow[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] =
-          d3.norm() / std::max(s.time_s[static_cast<std::size_t>(b)] - s.time_s[static_cast<std::size_t>(a)], 1e-9) <= 0.5 * v_max;
+      slow[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] = d.norm() / span <= 0.5 * v_max;
       st[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] =
           speed <= v_max && height[static_cast<std::size_t>(i)][static_cast<std::size_t>(k)] <= h_max;
     }

@@ -332,10 +332,6 @@ void estimateDerivatives(std::vector<ReferenceFrame>& frames, bool floating_base
   }
 }
 
-}  // namespace dynfilter::io
-
-namespace dynfilter::io {
-
 void lowPassConfigurations(std::vector<ReferenceFrame>& frames, bool floating_base, double cutoff_hz) {
   if (!(cutoff_hz > 0) || !std::isfinite(cutoff_hz))
     throw std::invalid_argument("lowPassConfigurations: cutoff_hz must be > 0");
