@@ -234,6 +234,25 @@ TEST(Balance, AFollowableStandingReferenceIsNotReportedInfeasible) {
 
 // Flat landing: a sole that touches down on its heel edge holds a face link over its whole
 // sole, anchored flat on the ground about the heel; a steeper sole keeps its edge link.
+// The virtual links the default contact options make from the collisions at @p q (v = 0).
+VirtualLinkSet linksAt(IDynamicsModel& model, const Eigen::VectorXd& q) {
+  model.setState(q, Eigen::VectorXd::Zero(model.nv()));
+  ContactList candidates(64);
+  model.detectContacts(candidates);
+  VirtualLinkSet links(ContactOptions{}, model.nv());
+  std::uint32_t status = 0;
+  links.update(model, candidates, status);
+  return links;
+}
+
+// The link @p body holds (the last one), or a default link (body −1) when it holds none.
+VirtualLink linkOf(const VirtualLinkSet& links, int body) {
+  VirtualLink found;
+  for (int i = 0; i < links.size(); ++i)
+    if (links[i].body == body) found = links[i];
+  return found;
+}
+
 struct Landing {
   int changed = 0;
   VirtualLink before, after;
@@ -254,20 +273,12 @@ Landing landOnHeel(double ankle_pitch_rad, double max_tilt_rad, double reference
   reference.q = q;
   reference.q[info.configurationIndex(info.findJoint("r_ankle_pitch"))] = reference_ankle_pitch_rad;
   layer.prepare(*model, reference, 1e-3);
-  model->setState(q, Eigen::VectorXd::Zero(info.nv));
-  ContactList candidates(64);
-  model->detectContacts(candidates);
-  ContactOptions contacts;
-  VirtualLinkSet links(contacts, info.nv);
-  std::uint32_t status = 0;
-  links.update(*model, candidates, status);
+  VirtualLinkSet links = linksAt(*model, q);
   Landing l;
   const int foot = info.findBody("r_foot");
-  for (int i = 0; i < links.size(); ++i)
-    if (links[i].body == foot) l.before = links[i];
+  l.before = linkOf(links, foot);
   l.changed = layer.flattenLandings(*model, links);
-  for (int i = 0; i < links.size(); ++i)
-    if (links[i].body == foot) l.after = links[i];
+  l.after = linkOf(links, foot);
   l.X_WB = model->bodyPose(foot);
   return l;
 }
@@ -327,7 +338,6 @@ Roll pushOff(double roll_tilt_rad, bool lifts_soon, double reference_ankle_pitch
   BalanceOptions options;
   options.roll_tilt_rad = roll_tilt_rad;
   BalanceLayer layer(*model, options);
-  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
   Eigen::VectorXd q = info.neutralConfiguration();
   q[info.configurationIndex(info.findJoint("l_knee"))] = 1.0;  // left foot up
   q[2] = standingBaseHeight(*model, q) - 0.001;                // the right sole 1 mm in, flat
@@ -345,19 +355,12 @@ Roll pushOff(double roll_tilt_rad, bool lifts_soon, double reference_ankle_pitch
     layer.pushPreview(*model, later);
   }
   layer.prepare(*model, now, 1e-3);
-  model->setState(q, v0);
-  ContactList candidates(64);
-  model->detectContacts(candidates);
-  VirtualLinkSet links(ContactOptions{}, info.nv);
-  std::uint32_t status = 0;
-  links.update(*model, candidates, status);
+  VirtualLinkSet links = linksAt(*model, q);
   Roll r;
   const int foot = info.findBody("r_foot");
-  for (int i = 0; i < links.size(); ++i)
-    if (links[i].body == foot) r.before = links[i];
+  r.before = linkOf(links, foot);
   r.changed = layer.rollSoles(links);
-  for (int i = 0; i < links.size(); ++i)
-    if (links[i].body == foot) r.after = links[i];
+  r.after = linkOf(links, foot);
   return r;
 }
 

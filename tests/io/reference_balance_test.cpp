@@ -25,6 +25,18 @@ std::unique_ptr<IDynamicsModel> mini() {
                          ModelOptions{});
 }
 
+// @p frames frames 10 ms apart, all at @p q (v, v̇ zero).
+ReferenceMotion stillMotion(const ModelInfo& info, const Eigen::VectorXd& q, int frames) {
+  ReferenceMotion motion;
+  for (int k = 0; k < frames; ++k) {
+    ReferenceFrame f(info.nq, info.nv);
+    f.time_s = 0.01 * k;
+    f.q = q;
+    motion.frames.push_back(f);
+  }
+  return motion;
+}
+
 Eigen::Vector3d comOf(IDynamicsModel& model, const Eigen::VectorXd& q) {
   const ModelInfo& info = model.info();
   const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
@@ -112,13 +124,7 @@ TEST(ReferenceCleanup, BalanceStageBringsTheZmpOverTheFeet) {
     q[info.configurationIndex(info.findJoint(std::string("talo_") + side + "_y"))] = -b;
   }
   q[2] = standingBaseHeight(*model, q);
-  ReferenceMotion motion;
-  for (int k = 0; k < 81; ++k) {
-    ReferenceFrame f(info.nq, info.nv);
-    f.time_s = 0.01 * k;
-    f.q = q;
-    motion.frames.push_back(f);
-  }
+  ReferenceMotion motion = stillMotion(info, q, 81);
   estimateDerivatives(motion.frames, true, 7, true, true);
   ReferenceCleanupOptions options;
   options.balance = false;
@@ -159,14 +165,7 @@ TEST(ReferenceCleanup, AHoveringFootUnderTheCentreOfMassIsInStance) {
     q[info.configurationIndex(info.findJoint("coxa_l_y"))] = -a;
     q[info.configurationIndex(info.findJoint("genu_l"))] = 2.0 * a * 0.3 / 0.31;
     q[info.configurationIndex(info.findJoint("talo_l_y"))] = -a;
-    ReferenceMotion motion;
-    for (int k = 0; k < 61; ++k) {
-      ReferenceFrame f(info.nq, info.nv);
-      f.time_s = 0.01 * k;
-      f.q = q;
-      motion.frames.push_back(f);
-    }
-    const ContactSchedule s = findContactSchedule(motion, *model, ReferenceCleanupOptions{});
+    const ContactSchedule s = findContactSchedule(stillMotion(info, q, 61), *model, ReferenceCleanupOptions{});
     ASSERT_EQ(s.links, (std::vector<std::string>{"sole_l", "sole_r"}));
     for (const auto& row : s.stance) {
       EXPECT_EQ(row[0], lift_m < 0.1 ? 1 : 0);
