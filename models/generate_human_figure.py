@@ -122,7 +122,7 @@ JOINTS_LEG = [  # without the side prefix
     ("hip_roll",      (1, 0, 0),  -30.0,  45.0, 200.0, 15.0),
     ("hip_pitch",     (0, 1, 0), -120.0,  30.0, 250.0, 15.0),
     ("knee",          (0, 1, 0),    0.0, 150.0, 250.0, 20.0),
-    ("ankle_pitch",   (0, 1, 0),  -20.0,  50.0, 200.0, 20.0),
+    ("ankle_pitch",   (0, 1, 0),  -40.0,  50.0, 200.0, 20.0),
     ("ankle_roll",    (1, 0, 0),  -35.0,  15.0,  60.0, 20.0),
 ]
 JOINTS_ARM = [  # without the side prefix

@@ -29,6 +29,10 @@ constexpr double kTouchHeight = 0.005;
 // posture weights so that a stance foot stays within a fraction of a millimetre.
 constexpr double kFootPositionWeight = 1e3;
 constexpr double kFootOrientationWeight = 10.0;
+// A stance run whose reference sole is tilted from its flat pose by more than this on
+// average stands on its toes or heel (kneeling, tiptoe): it is held where and as the
+// reference holds it, not flattened.
+constexpr double kMaxFlatStanceTiltRad = 0.35;
 
 // A foot: its body and sole points (body frame) from the neutral stance.
 struct Foot {
@@ -401,10 +405,26 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
         xs += ref[static_cast<std::size_t>(k)].linear() * f.R_flat.transpose() * (f.R_flat * Eigen::Vector3d::UnitX());
       }
       c /= static_cast<double>(e - b);
-      // Mean heading: the flat pose of the mean forward direction.
-      const Eigen::Vector3d x0 = f.R_flat * Eigen::Vector3d::UnitX();
-      const Eigen::Matrix3d R_heading = Eigen::Quaterniond::FromTwoVectors(x0, xs.normalized()).toRotationMatrix();
-      pose[r] = flatPose(f, R_heading * f.R_flat, c);
+      double tilt = 0.0;
+      for (int k = b; k < e; ++k) {
+        const Eigen::Vector3d n_k = ref[static_cast<std::size_t>(k)].linear() * f.R_flat.transpose() * normal;
+        tilt += std::acos(std::clamp(n_k.dot(normal), -1.0, 1.0)) / static_cast<double>(e - b);
+      }
+      if (tilt > kMaxFlatStanceTiltRad) {
+        // On its toes or heel: the reference's pose in the run's middle, at the mean place,
+        // no sole point below the ground.
+        Eigen::Isometry3d X = ref[static_cast<std::size_t>((b + e) / 2)];
+        X.translation() += c - X * f.centre;
+        double h = std::numeric_limits<double>::infinity();
+        for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X * p));
+        if (h < 0) X.translation() -= h * normal;
+        pose[r] = X;
+      } else {
+        // Mean heading: the flat pose of the mean forward direction.
+        const Eigen::Vector3d x0 = f.R_flat * Eigen::Vector3d::UnitX();
+        const Eigen::Matrix3d R_heading = Eigen::Quaterniond::FromTwoVectors(x0, xs.normalized()).toRotationMatrix();
+        pose[r] = flatPose(f, R_heading * f.R_flat, c);
+      }
       at_start[r] = correction(pose[r], ref[static_cast<std::size_t>(b)]);
       at_end[r] = correction(pose[r], ref[static_cast<std::size_t>(e - 1)]);
     }

@@ -128,7 +128,7 @@ class MappingParser {
     readMap(root, "mapping",
             {"length_scale", "skip_frames", "up_axis", "bvh_forward", "root", "segments",
              "ground_frames", "smoothing_window", "clamp_to_limits", "mode", "ik",
-             "allow_unmapped", "cleanup"},
+             "allow_unmapped", "cleanup", "flat_soles"},
             [&](const std::string& k, const YAML::Node& v) {
               if (k == "length_scale") {
                 m.length_scale = number(v, k);
@@ -207,6 +207,8 @@ class MappingParser {
                 m.clamp_to_limits = boolean(v, k);
               } else if (k == "allow_unmapped") {
                 m.allow_unmapped = boolean(v, k);
+              } else if (k == "flat_soles") {
+                m.flat_soles = boolean(v, k);
               } else if (k == "mode") {
                 const std::string mode = text(v, k);
                 if (mode == "chain") m.mode = RetargetMode::kChain;
@@ -405,6 +407,61 @@ std::vector<double> decomposeRotation(const Eigen::Matrix3d& R,
   return out;
 }
 
+namespace {
+
+// Soles flat in stance: a segment mapped onto a link the model stands on at its neutral
+// configuration gets its calibration turned (about no axis of the sole's normal) so that,
+// over the frames where its BVH joint is low and still, its sole is level on average. A
+// skeleton's rest pose says nothing about where its feet are flat; the clip does.
+void calibrateSoles(const BvhMotion& bvh, const RetargetMapping& mapping, IDynamicsModel& model,
+                    const Eigen::Matrix3d& R_conv, std::vector<Segment>& segs,
+                    std::vector<SoleCalibration>& out) {
+  constexpr double kLowM = 0.03;        // above the joint's lowest height over the clip
+  constexpr double kStillMps = 0.3;     // joint speed
+  constexpr int kMinFrames = 10;
+  const ModelInfo& info = model.info();
+  Eigen::VectorXd q = info.neutralConfiguration();
+  q[2] = standingBaseHeight(model, q) - 1e-4;
+  model.setState(q, Eigen::VectorXd::Zero(info.nv));
+  ContactList contacts(256);
+  model.detectContacts(contacts);
+  const int first = mapping.skip_frames;
+  const int count = bvh.frameCount() - first;
+  std::vector<std::vector<Eigen::Isometry3d>> X(static_cast<std::size_t>(count));
+  for (int k = 0; k < count; ++k) bvhForwardKinematics(bvh, first + k, X[static_cast<std::size_t>(k)]);
+  for (Segment& S : segs) {
+    bool sole = false;
+    for (const ContactCandidate& c : contacts) sole = sole || c.body == S.body;
+    if (!sole || S.spec == nullptr) continue;
+    const std::size_t j = static_cast<std::size_t>(S.bvh_joint);
+    double z_low = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < count; ++k) z_low = std::min(z_low, (R_conv * X[static_cast<std::size_t>(k)][j].translation()).z());
+    // The sole's normal in the link frame: world up at the neutral stance.
+    const Eigen::Vector3d n_B = model.bodyPose(S.body).linear().transpose() * Eigen::Vector3d::UnitZ();
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int frames = 0;
+    for (int k = 1; k + 1 < count; ++k) {
+      const Eigen::Vector3d p = R_conv * X[static_cast<std::size_t>(k)][j].translation();
+      const Eigen::Vector3d d = X[static_cast<std::size_t>(k + 1)][j].translation() - X[static_cast<std::size_t>(k - 1)][j].translation();
+      if (p.z() > z_low + kLowM || d.norm() > 2.0 * bvh.frame_time_s * kStillMps) continue;
+      const Eigen::Matrix3d R = R_conv * X[static_cast<std::size_t>(k)][j].linear() * S.C;
+      sum += R.transpose() * Eigen::Vector3d::UnitZ();
+      ++frames;
+    }
+    SoleCalibration cal;
+    cal.link = S.link;
+    cal.stance_frames = frames;
+    if (frames >= kMinFrames && sum.norm() > 1e-9) {
+      const Eigen::Vector3d u = sum.normalized();
+      cal.angle_rad = std::acos(std::clamp(u.dot(n_B), -1.0, 1.0));
+      S.C = S.C * Eigen::Quaterniond::FromTwoVectors(n_B, u).toRotationMatrix();
+    }
+    out.push_back(cal);
+  }
+}
+
+}  // namespace
+
 RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
                            IDynamicsModel& model) {
   const ModelInfo& info = model.info();
@@ -569,6 +626,7 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
   }
 
   RetargetResult result;
+  if (mapping.flat_soles) calibrateSoles(bvh, mapping, model, R_conv, segs, result.soles);
   std::vector<bool> mapped(static_cast<std::size_t>(info.nj), false);
   for (const Segment& C : segs)
     for (const int j : C.joints) mapped[static_cast<std::size_t>(j)] = true;

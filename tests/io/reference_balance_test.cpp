@@ -174,6 +174,32 @@ TEST(ReferenceCleanup, AHoveringFootUnderTheCentreOfMassIsInStance) {
   }
 }
 
+// A figure standing still on both soles tilted by the same ankle angle, its lowest points
+// on the ground. Tilted by 0.5 rad it stands on its toes or heels (tiptoe, kneeling): the
+// clean-up holds each sole as the reference does. Tilted by 0.2 rad the tilt is taken for a
+// retargeting error and the soles are laid flat.
+TEST(ReferenceCleanup, ASoleStandingOnItsEdgeKeepsItsTiltAFlatOneIsLevelled) {
+  auto model = mini();
+  const ModelInfo& info = model->info();
+  for (const double tilt : {0.5, -0.5, 0.2}) {
+    SCOPED_TRACE(tilt);
+    Eigen::VectorXd q = info.neutralConfiguration();
+    for (const char* ankle : {"talo_l_y", "talo_r_y"}) q[info.configurationIndex(info.findJoint(ankle))] = tilt;
+    q[2] = standingBaseHeight(*model, q);
+    ReferenceCleanupOptions options;
+    options.lowpass_hz = 0.0;
+    const CleanupResult r = cleanupReference(stillMotion(info, q, 61), *model, options);
+    for (const auto& row : r.schedule.stance) EXPECT_EQ(row, (std::vector<char>{1, 1}));
+    for (const char* ankle : {"talo_l_y", "talo_r_y"}) {
+      const double after = r.motion.frames[30].q[info.configurationIndex(info.findJoint(ankle))];
+      if (std::fabs(tilt) > 0.35)
+        EXPECT_NEAR(after, tilt, 1e-3) << ankle;
+      else
+        EXPECT_NEAR(after, 0.0, 0.02) << ankle;
+    }
+  }
+}
+
 TEST(LowPassConfigurations, KeepsLinesAndDampsNoiseAsItsGaussian) {
   const int n = 1001;
   const double dt = 0.001, cutoff = 8.0, sigma = 0.1325 / cutoff;

@@ -439,6 +439,47 @@ TEST(Retarget, SyntheticBvhMapsToKnownAngles) {
   }
 }
 
+// Standing still for 40 frames with the BVH's ankles rolled by 15° (left) and −10°
+// (right), the left knee bent under a flexed hip (shank vertical): every frame is a stance
+// frame of both feet. With flat_soles (the default) each
+// sole's calibration turns by its roll and the soles stand level (ankle roll 0, every other
+// joint unchanged); with flat_soles: false the rolls stay.
+TEST(Retarget, SolesAreLevelledOverTheirStanceFrames) {
+  auto model = humanFigure();
+  const ModelInfo& info = model->info();
+  const std::string path = ::testing::TempDir() + "/retarget_rolled_soles.bvh";
+  SyntheticFrame f = syntheticFrame(0.0);
+  f.deg["l_ankle_roll"] = 15.0;
+  f.deg["r_ankle_roll"] = -10.0;
+  f.deg["l_hip_pitch"] = -30.0;  // the thigh forward, the shank vertical again
+  f.deg["l_knee"] = 30.0;
+  {
+    std::ofstream out(path);
+    std::string text = kSyntheticBvh;
+    text.replace(text.find("Frames: 3"), 9, "Frames: 41");
+    out << text;
+    for (int k = 0; k < 41; ++k) out << bvhLine(f);
+  }
+  for (const bool flat : {true, false}) {
+    SCOPED_TRACE(flat ? "flat_soles" : "flat_soles: false");
+    RetargetMapping mapping = parseRetargetMapping(
+        std::string(kSyntheticMapping) + (flat ? "" : "flat_soles: false\n"), "synthetic.yaml");
+    const RetargetResult r = retargetBvhFile(path, mapping, *model);
+    ASSERT_EQ(r.motion.frames.size(), 40u);
+    ASSERT_EQ(r.soles.size(), flat ? 2u : 0u);
+    const Eigen::VectorXd& q = r.motion.frames[20].q;
+    auto angle = [&](const char* joint) { return q[info.configurationIndex(info.findJoint(joint))]; };
+    EXPECT_NEAR(angle("l_ankle_roll"), flat ? 0.0 : 15.0 * kDeg, 1e-9);
+    EXPECT_NEAR(angle("r_ankle_roll"), flat ? 0.0 : -10.0 * kDeg, 1e-9);
+    EXPECT_NEAR(angle("l_knee"), 30.0 * kDeg, 1e-9);
+    EXPECT_NEAR(angle("l_ankle_pitch"), 0.0, 1e-9);
+    for (const SoleCalibration& c : r.soles) {
+      EXPECT_GE(c.stance_frames, 10) << c.link;
+      EXPECT_NEAR(c.angle_rad, (c.link == "l_foot" ? 15.0 : 10.0) * kDeg, 1e-9) << c.link;
+    }
+  }
+}
+
 TEST(Retarget, DecomposeRotationRoundTrips) {
   const std::vector<std::vector<Eigen::Vector3d>> chains = {
       {Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY()},

@@ -76,6 +76,15 @@ int main(int argc, char** argv) {
       for (const auto& j : result.unmapped_joints) report += " " + j;
       report += "\n";
     }
+    for (const auto& sole : result.soles) {
+      if (sole.stance_frames >= 10)
+        std::snprintf(line, sizeof line, "sole %s levelled in stance: turned %.1f deg (%d stance frames)\n",
+                      sole.link.c_str(), sole.angle_rad * 180.0 / M_PI, sole.stance_frames);
+      else
+        std::snprintf(line, sizeof line, "sole %s not levelled: %d stance frames (< 10)\n",
+                      sole.link.c_str(), sole.stance_frames);
+      report += line;
+    }
     if (!result.targets.empty()) report += dynfilter::io::formatTargetReport(result);
     report += "joint limits (retargeted):\n" + dynfilter::io::formatLimitReport(result);
 

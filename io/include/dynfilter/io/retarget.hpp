@@ -23,6 +23,13 @@
 ///    twist of A_s chosen so that the mean direction in which the child bone deflects from
 ///    the segment's bone over the whole clip becomes that direction; kept from the rest
 ///    pose when the mean deflection is below 10° or with `hinge_twist: false`.
+///  - Soles (`flat_soles`, default true): a segment whose link the model stands on at its
+///    neutral configuration (its sole touches the ground there) gets C_s turned by the
+///    minimal rotation that levels the sole on average over the clip's stance frames —
+///    where its BVH joint is within 3 cm of its lowest height and slower than 0.3 m/s (at
+///    least 10 frames, else left as is). A skeleton's rest pose does not say where its feet
+///    are flat: the CMU skeletons' retargeted soles stood rolled by 15–30°, which the
+///    clean-up then had to take out of the legs. Reported in RetargetResult::soles.
 ///  - Base: position = mean of the BVH joints listed in `root.position` (e.g. the two hip
 ///    centres; default the root joint), converted, plus a vertical offset so that the
 ///    lowest point of the model over the first `ground_frames` frames touches the model's
@@ -116,7 +123,7 @@ struct RetargetIkOptions {
 ///       - {link: l_foot, bvh: LeftFoot, align: false, figure_bone: [1, 0, 0]}
 ///
 /// Optional keys: `mode` (chain or ik), `ik: {scale, max_iterations, posture_weight}`,
-/// `allow_unmapped` (false), `ground_frames` (default 30), `smoothing_window` (7),
+/// `allow_unmapped` (false), `flat_soles` (true), `ground_frames` (default 30), `smoothing_window` (7),
 /// `clamp_to_limits` (false), `cleanup` (ReferenceCleanupOptions, reference_cleanup.hpp);
 /// `root.offset_xyz` (IK: the point of the root link at the base position); per segment
 /// `bone_end`, `align`, `figure_bone: [x, y, z]`, `flexion: [x, y, z]`, `hinge_twist`,
@@ -140,6 +147,9 @@ struct RetargetMapping {
   int ground_frames = 30;     ///< frames over which the lowest point is put on the ground
   int smoothing_window = 7;   ///< for estimateDerivatives
   bool clamp_to_limits = false;
+  /// Soles level in stance (see file comment); `flat_soles: false` keeps the rest-pose
+  /// calibration of the feet.
+  bool flat_soles = true;
 
   /// R_conv: v_figure = R_conv · v_bvh. @throws std::invalid_argument on bad axes.
   Eigen::Matrix3d axisConversion() const;
@@ -169,6 +179,13 @@ struct TargetReport {
   bool has_position = false, has_orientation = false;
 };
 
+/// The stance calibration of one sole segment (RetargetMapping::flat_soles).
+struct SoleCalibration {
+  std::string link;
+  int stance_frames = 0;   ///< frames with its BVH joint low and still (< 10: not calibrated)
+  double angle_rad = 0.0;  ///< how far its calibration was turned
+};
+
 struct RetargetResult {
   ReferenceMotion motion;
   std::vector<JointLimitReport> limits;  ///< one per model joint, model order
@@ -179,6 +196,7 @@ struct RetargetResult {
   std::vector<std::string> unmapped_joints;  ///< joints between no two mapped links
   std::vector<TargetReport> targets;  ///< IK mode: one per mapped link with a target
   double ik_scale = 1.0;              ///< IK mode: the length scale used
+  std::vector<SoleCalibration> soles;  ///< with flat_soles: one per mapped sole link
 };
 
 /// Retargets @p bvh (read with mapping.length_scale, all frames kept) onto @p model (any
