@@ -383,7 +383,8 @@ void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& referenc
   // Can the reference be followed? It needs the contact force m (c̈ − g).
   const Eigen::Vector3d force = mass_kg_ * (cddot_ref_ + Eigen::Vector3d(0.0, 0.0, kGravity));
   InfeasibleReason reason = InfeasibleReason::kNone;
-  if (force.z() > 0.3 * mass_kg_ * kGravity) {
+  needs_support_ = force.z() > 0.3 * mass_kg_ * kGravity;
+  if (needs_support_) {
     if (now_.num_support == 0) {
       reason = InfeasibleReason::kNoSupport;
     } else if (env.has_ground) {

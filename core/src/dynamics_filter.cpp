@@ -232,7 +232,7 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   if (contact_qp_ && !balance_) links_.startLiftoffReleases(model_, options_.qp.liftoff_clearance_m);
   if (balance_) {
     balance_->prepare(model_, ref, options_.dt_s);
-    links_.applyReferenceSchedule(balance_->referenceStance());
+    links_.applyReferenceSchedule(balance_->heldStance());
     const InfeasibleReason infeasible = balance_->state().infeasible;
     if (infeasible != InfeasibleReason::kNone) {
       status |= kStatusReferenceInfeasible;

@@ -236,6 +236,37 @@ TEST(Balance, AFollowableStandingReferenceIsNotReportedInfeasible) {
   EXPECT_EQ(u.reseeds, 0u);
 }
 
+// A standing reference whose feet leave the ground for 0.12 s (lifted 3 cm: no body in
+// stance) while its centre of mass, at rest, needs the ground's support: a foot rolling on
+// an edge or gliding in a retargeted clip, not a flight. The figure keeps the links it
+// holds instead of letting go of the ground; the status says the reference is unsupported
+// only after 0.25 s of it, so not here.
+TEST(Balance, AnUnsupportedReferenceThatNeedsSupportDoesNotLetGoOfTheGround) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const ModelInfo& info = model->info();
+  ReferenceFrame ref(info.nq, info.nv);
+  ref.q = info.neutralConfiguration();
+  const double stand_z = standingBaseHeight(*model, ref.q);
+  ref.q[2] = stand_z;
+  const FilterOptions options = qpDefaults(1e-3);
+  DynamicsFilter filter(*model, options, proxqp::factory());
+  filter.reset(ref);
+  int fewest_contacts = 100;
+  std::uint32_t status_union = 0;
+  for (int k = 0; k < 600; ++k) {
+    ref.time_s = k * options.dt_s;
+    ref.q[2] = stand_z + (ref.time_s >= 0.3 && ref.time_s < 0.42 ? 0.03 : 0.0);
+    const FilterOutput& out = filter.step(ref);
+    if (k >= 50) fewest_contacts = std::min(fewest_contacts, out.num_contacts);
+    status_union |= out.status;
+  }
+  EXPECT_GE(fewest_contacts, 2);
+  EXPECT_EQ(filter.output().counters.links_released, 0u);
+  EXPECT_EQ(filter.output().counters.reseeds, 0u);
+  EXPECT_EQ(status_union & (kStatusReseeded | kStatusReferenceInfeasible | kStatusQpFallback), 0u)
+      << "status union " << status_union;
+}
+
 // Flat landing: a sole that touches down on its heel edge holds a face link over its whole
 // sole, anchored flat on the ground about the heel; a steeper sole keeps its edge link.
 // The virtual links the default contact options make from the collisions at @p q (v = 0).

@@ -133,6 +133,14 @@ class BalanceLayer {
   /// has body b within stance_height_m of the environment and slower than
   /// stance_speed_mps (bodies ≥ 64 are not tracked).
   std::uint64_t referenceStance() const { return now_.stance; }
+  /// The bodies whose held links the contact schedule keeps (VirtualLinkSet::
+  /// applyReferenceSchedule): referenceStance(); or, while the reference has no body in
+  /// stance but its centre of mass needs a supporting force (c̈_z + g > 0.3 g: a foot
+  /// rolling on its edge or gliding, not a flight), every body — the figure keeps the
+  /// contacts it holds instead of letting go of the ground.
+  std::uint64_t heldStance() const {
+    return now_.stance == 0 && needs_support_ ? ~std::uint64_t{0} : now_.stance;
+  }
   /// Bodies kept flat on the ground while in contact (body indices).
   const std::vector<int>& soleBodies() const { return sole_bodies_; }
 
@@ -180,6 +188,7 @@ class BalanceLayer {
   Eigen::Vector3d cddot_ref_ = Eigen::Vector3d::Zero();
   double omega_ = 3.0;
   double infeasible_s_ = 0.0;   // time the reference has looked infeasible
+  bool needs_support_ = false;  // the reference's CoM needs a supporting force now
   InfeasibleReason pending_ = InfeasibleReason::kNone;
   BalanceState state_;
   // Scratch.
