@@ -410,7 +410,7 @@ std::vector<double> decomposeRotation(const Eigen::Matrix3d& R,
 namespace {
 
 // Soles flat in stance: a segment mapped onto a link the model stands on at its neutral
-// configuration gets its calibration turned (about no axis of the sole's normal) so that,
+// configuration gets its calibration turned (about an axis in the sole's plane) so that,
 // over the frames where its BVH joint is low and still, its sole is level on average. A
 // skeleton's rest pose says nothing about where its feet are flat; the clip does.
 void calibrateSoles(const BvhMotion& bvh, const RetargetMapping& mapping, IDynamicsModel& model,
