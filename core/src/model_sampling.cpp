@@ -40,4 +40,12 @@ double standingBaseHeight(IDynamicsModel& model, Eigen::VectorXd q) {
   return free;
 }
 
+double standingContacts(IDynamicsModel& model, Eigen::VectorXd q, ContactList& contacts) {
+  const double height = standingBaseHeight(model, q);
+  q[2] = height - 1e-4;
+  model.setState(q, Eigen::VectorXd::Zero(model.nv()));
+  model.detectContacts(contacts);
+  return height;
+}
+
 }  // namespace dynfilter

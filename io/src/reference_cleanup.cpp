@@ -62,13 +62,9 @@ Setup findFeet(IDynamicsModel& model, const ReferenceCleanupOptions& options) {
   options.validate();
   const ModelInfo& info = model.info();
   if (!info.floating_base) throw std::invalid_argument("cleanupReference: the model must have a floating base");
-  Eigen::VectorXd q = info.neutralConfiguration();
   Setup setup;
-  setup.leg_length_m = standingBaseHeight(model, q);
-  q[2] = setup.leg_length_m - 1e-4;  // a little into the ground: every sole point reports
-  model.setState(q, Eigen::VectorXd::Zero(info.nv));
   ContactList contacts(256);
-  model.detectContacts(contacts);
+  setup.leg_length_m = standingContacts(model, info.neutralConfiguration(), contacts);
   std::vector<int> bodies;
   for (const std::string& name : options.feet) {
     const int b = info.findBody(name);

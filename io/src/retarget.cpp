@@ -419,12 +419,8 @@ void calibrateSoles(const BvhMotion& bvh, const RetargetMapping& mapping, IDynam
   constexpr double kLowM = 0.03;        // above the joint's lowest height over the clip
   constexpr double kStillMps = 0.3;     // joint speed
   constexpr int kMinFrames = 10;
-  const ModelInfo& info = model.info();
-  Eigen::VectorXd q = info.neutralConfiguration();
-  q[2] = standingBaseHeight(model, q) - 1e-4;
-  model.setState(q, Eigen::VectorXd::Zero(info.nv));
   ContactList contacts(256);
-  model.detectContacts(contacts);
+  standingContacts(model, model.info().neutralConfiguration(), contacts);
   const int first = mapping.skip_frames;
   const int count = bvh.frameCount() - first;
   std::vector<std::vector<Eigen::Isometry3d>> X(static_cast<std::size_t>(count));

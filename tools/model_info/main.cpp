@@ -94,12 +94,9 @@ int main(int argc, char** argv) {
                 std::chrono::duration<double, std::micro>(t1 - t0).count());
 
     if (!info.floating_base) return 0;
-    const double z0 = dynfilter::standingBaseHeight(*model, info.neutralConfiguration());
-    Eigen::VectorXd q = info.neutralConfiguration();
-    q[2] = z0 - 1e-4;  // 0.1 mm into the floor: the collision engine reports the soles
-    model->setState(q, Eigen::VectorXd::Zero(info.nv));
     ContactList contacts;
-    model->detectContacts(contacts);
+    const double z0 = dynfilter::standingContacts(*model, info.neutralConfiguration(), contacts);
+    const Eigen::VectorXd q = model->q();
     std::printf("\nstanding on level ground: base height %.4f m, %zu contact points\n", z0,
                 contacts.size());
     for (const auto& c : contacts)

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include "dynfilter/core/contact.hpp"
 #include "dynfilter/core/dynamics_model.hpp"
 #include "dynfilter/core/model_info.hpp"
 
@@ -21,5 +22,11 @@ void randomState(const ModelInfo& info, std::mt19937& rng, double velocity_scale
 /// that height, first touches the environment according to its own collision engine
 /// (bisection to 1e-9 m over [0, 3] m). Changes the model's state. Floating base only.
 double standingBaseHeight(IDynamicsModel& model, Eigen::VectorXd q);
+
+/// The collision points of @p model standing in configuration @p q on its environment: the
+/// base at standingBaseHeight less 0.1 mm, so that the collision engine reports every point
+/// that touches (the soles). Fills @p contacts (at most its capacity), leaves the model in
+/// that state with zero velocity and returns the standing base height (m). Floating base only.
+double standingContacts(IDynamicsModel& model, Eigen::VectorXd q, ContactList& contacts);
 
 }  // namespace dynfilter
