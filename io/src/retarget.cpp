@@ -447,7 +447,8 @@ void calibrateSoles(const BvhMotion& bvh, const RetargetMapping& mapping, IDynam
     SoleCalibration cal;
     cal.link = S.link;
     cal.stance_frames = frames;
-    if (frames >= kMinFrames && sum.norm() > 1e-9) {
+    cal.levelled = frames >= kMinFrames && sum.norm() > 1e-9;
+    if (cal.levelled) {
       const Eigen::Vector3d u = sum.normalized();
       cal.angle_rad = std::acos(std::clamp(u.dot(n_B), -1.0, 1.0));
       S.C = S.C * Eigen::Quaterniond::FromTwoVectors(n_B, u).toRotationMatrix();

@@ -475,6 +475,7 @@ TEST(Retarget, SolesAreLevelledOverTheirStanceFrames) {
     EXPECT_NEAR(angle("l_ankle_pitch"), 0.0, 1e-9);
     for (const SoleCalibration& c : r.soles) {
       EXPECT_GE(c.stance_frames, 10) << c.link;
+      EXPECT_TRUE(c.levelled) << c.link;
       EXPECT_NEAR(c.angle_rad, (c.link == "l_foot" ? 15.0 : 10.0) * kDeg, 1e-9) << c.link;
     }
   }

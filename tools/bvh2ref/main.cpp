@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
       report += "\n";
     }
     for (const auto& sole : result.soles) {
-      if (sole.stance_frames >= 10)
+      if (sole.levelled)
         std::snprintf(line, sizeof line, "sole %s levelled in stance: turned %.1f deg (%d stance frames)\n",
                       sole.link.c_str(), sole.angle_rad * 180.0 / M_PI, sole.stance_frames);
       else

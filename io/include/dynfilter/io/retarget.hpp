@@ -182,7 +182,8 @@ struct TargetReport {
 /// The stance calibration of one sole segment (RetargetMapping::flat_soles).
 struct SoleCalibration {
   std::string link;
-  int stance_frames = 0;   ///< frames with its BVH joint low and still (< 10: not calibrated)
+  int stance_frames = 0;   ///< frames with its BVH joint low and still
+  bool levelled = false;   ///< enough of them (≥ 10) to turn the calibration
   double angle_rad = 0.0;  ///< how far its calibration was turned
 };
 
