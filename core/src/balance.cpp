@@ -247,6 +247,7 @@ void BalanceLayer::makeSample(IDynamicsModel& model, const ReferenceFrame& frame
   const CentroidalState cs = centroidalState(A_, frame.q, frame.v, mass_kg_);
   out.c = cs.c_W;
   out.cdot = cs.cdot_W;
+  out.L = cs.L_W;
   // Support: body points within stance_height of the environment and slow. The model is
   // lowered by stance_height so that the collision engine reports them.
   const double h = options_.stance_height_m;
@@ -283,16 +284,33 @@ bool BalanceLayer::pushPreview(IDynamicsModel& model, const ReferenceFrame& fram
   return true;
 }
 
-Eigen::Vector2d BalanceLayer::segmentCop(const Sample& a, const Sample& b, Eigen::Vector3d* cddot) const {
-  const double dt = b.t - a.t;
-  const Eigen::Vector3d acc = dt > 1e-9 ? Eigen::Vector3d((b.cdot - a.cdot) / dt) : Eigen::Vector3d::Zero();
+int BalanceLayer::sampleBefore(int i, double t) const {
+  while (i > 0 && at(i).t > t) --i;
+  return i;
+}
+
+int BalanceLayer::sampleAfter(int i, double t) const {
+  while (i + 1 < size_ && at(i).t < t) ++i;
+  return i;
+}
+
+Eigen::Vector2d BalanceLayer::segmentCop(const Sample& before, const Sample& a, const Sample& b,
+                                         const Sample& after, Eigen::Vector3d* cddot,
+                                         Eigen::Vector2d* excess) const {
+  const double dt = after.t - before.t;
+  const Eigen::Vector3d acc = dt > 1e-9 ? Eigen::Vector3d((after.cdot - before.cdot) / dt) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d Ldot = dt > 1e-9 ? Eigen::Vector3d((after.L - before.L) / dt) : Eigen::Vector3d::Zero();
   if (cddot != nullptr) *cddot = acc;
   const Eigen::Vector3d c = 0.5 * (a.c + b.c);
   const double height = std::max(c.z() - groundHeight(c.head<2>()), kMinHeight);
   const double support = kGravity + acc.z();
   Eigen::Vector2d p = c.head<2>();
-  if (support > 0.2 * kGravity) p -= height / support * acc.head<2>();
-  return clampToHull(p, a.support, a.num_support);
+  // The CoP of the wrench the reference needs: force m (c̈ + g), moment L̇ about c.
+  if (support > 0.2 * kGravity)
+    p += -height / support * acc.head<2>() + Eigen::Vector2d(-Ldot.y(), Ldot.x()) / (mass_kg_ * support);
+  const Eigen::Vector2d clamped = clampToHull(p, a.support, a.num_support);
+  if (excess != nullptr) *excess = clamped - p;
+  return clamped;
 }
 
 void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& reference, double dt_s) {
@@ -310,6 +328,7 @@ void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& referenc
     now_.t = t;
     now_.c = a.c + s * (b.c - a.c);
     now_.cdot = a.cdot + s * (b.cdot - a.cdot);
+    now_.L = a.L + s * (b.L - a.L);
     const Sample& nearest = s < 0.5 ? a : b;
     now_.num_support = nearest.num_support;
     now_.support = nearest.support;
@@ -362,17 +381,24 @@ void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& referenc
   lifting_soon_ = 0;
   for (int i = first; i < size_ && at(i).t <= t + kRollLookaheadS; ++i) lifting_soon_ |= now_.stance & ~at(i).stance;
   if (last > first) {
-    const Sample& end = at(last - 1);
-    Eigen::Vector2d xi = end.c.head<2>() + end.cdot.head<2>() / omega_;
+    // The target is the reference's own DCM, moved by what its support cannot carry: the
+    // CoP the reference needs, clamped into its support, differs from it by an excess e;
+    // the pendulum's DCM answers e as ξ answers p, so the offset integrates backwards as
+    // δξ ← e + exp(−ω Δt) (δξ − e) from 0 at the window's end. Where the reference's CoP
+    // stays in its support the target is its DCM, whatever the model's error.
+    Eigen::Vector2d dxi = Eigen::Vector2d::Zero(), excess;
     for (int i = last - 1; i > first; --i) {
       const Sample& a = at(i - 1);
       const Sample& b = at(i);
-      const Eigen::Vector2d p = segmentCop(a, b, nullptr);
-      xi = p + std::exp(-omega_ * (b.t - a.t)) * (xi - p);
+      segmentCop(at(sampleBefore(i - 1, a.t - kAccelHalfWindowS)), a, b,
+                 at(sampleAfter(i, b.t + kAccelHalfWindowS)), nullptr, &excess);
+      dxi = excess + std::exp(-omega_ * (b.t - a.t)) * (dxi - excess);
     }
     const Sample& b = at(first);
-    cop_target_ = segmentCop(now_, b, &cddot_ref_);
-    dcm_target_ = cop_target_ + std::exp(-omega_ * (b.t - t)) * (xi - cop_target_);
+    cop_target_ = segmentCop(first > 0 ? at(sampleBefore(first - 1, t - kAccelHalfWindowS)) : now_, now_, b,
+                             at(sampleAfter(first, b.t + kAccelHalfWindowS)), &cddot_ref_, &excess);
+    dxi = excess + std::exp(-omega_ * (b.t - t)) * (dxi - excess);
+    dcm_target_ = now_.c.head<2>() + now_.cdot.head<2>() / omega_ + dxi;
   } else {
     cddot_ref_.setZero();
     cop_target_ = clampToHull(Eigen::Vector2d(now_.c.head<2>()), now_.support, now_.num_support);

@@ -267,6 +267,7 @@ void ReferenceCleanupOptions::validate() const {
   require(std::isfinite(lowpass_hz) && lowpass_hz >= 0, "lowpass_hz: must be >= 0 (0: off)");
   require(std::isfinite(zmp_margin_m) && zmp_margin_m >= 0, "zmp_margin_m: must be >= 0");
   require(balance_iterations >= 1 && balance_iterations <= 20, "balance_iterations: must be in [1, 20]");
+  require(std::isfinite(max_com_shift_m) && max_com_shift_m > 0, "max_com_shift_m: must be > 0");
   require(smoothing_window >= 3 && smoothing_window % 2 == 1, "smoothing_window: must be odd and >= 3");
 }
 
@@ -329,7 +330,7 @@ std::vector<FootReport> measureFeet(const ReferenceMotion& motion, IDynamicsMode
 }
 
 CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& model,
-                               const ReferenceCleanupOptions& options) {
+                               const ReferenceCleanupOptions& options, const QpSolverFactory& qp_solver) {
   if (input.frames.size() < 2) throw std::invalid_argument("cleanupReference: fewer than 2 frames");
   // Everything below works on the low-passed motion; the report compares with the input.
   ReferenceMotion motion = input;
@@ -370,7 +371,6 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
     return X;
   };
   std::vector<std::vector<Eigen::Isometry3d>> X_goal = X_ref;
-  const double dt = (sched.time_s.back() - sched.time_s.front()) / std::max(1, n - 1);
   for (int i = 0; i < nf; ++i) {
     const Foot& f = setup.feet[static_cast<std::size_t>(i)];
     auto& goal = X_goal[static_cast<std::size_t>(i)];
@@ -523,7 +523,7 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
   solveClip(shift_W, result.motion);
 
   // Balance: the ZMP into the stance soles' support (shrunk by zmp_margin_m), by moving the
-  // base along the ground (δ − δ̈/ω² = the ZMP's distance to the support), the feet kept.
+  // base along the ground onto the nearest CoM path a pendulum can follow, the feet kept.
   CleanupReport& rep = result.report;
   auto supportOf = [&](const ReferenceMotion& m) {
     std::vector<std::vector<Eigen::Vector3d>> support(static_cast<std::size_t>(n));
@@ -559,29 +559,43 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
   rep.zmp_outside_max_after_m = rep.zmp_outside_max_before_m;
   rep.zmp_outside_rms_after_m = rep.zmp_outside_rms_before_m;
   if (options.balance && rep.zmp_frames_outside_before > 0) {
+    if (!qp_solver)
+      throw std::invalid_argument("cleanupReference: the balance stage (balance: true) needs a QP solver");
+    // The CoM path nearest the reference's that the pendulum can follow on its support,
+    // then the base moved along the ground until the IK's CoM (feet kept) lies on it.
     const Eigen::Matrix3d R_PW = groundPlaneFrame(model);
-    double height = 0.0;
-    for (const ZmpSample& z : zmp) height += z.com_height_m / n;
-    const double omega = std::sqrt(9.81 / std::max(height, 0.2));
-    std::vector<Eigen::Vector2d> e(static_cast<std::size_t>(n));
+    const std::vector<PendulumSample> samples = pendulumSamples(result.motion, model, supportOf(result.motion));
+    FeasibleComOptions fc;
+    fc.max_shift_m = options.max_com_shift_m;
+    const std::vector<Eigen::Vector2d> target = feasibleComPath(samples, fc, qp_solver, &rep.com_path);
+    std::vector<Eigen::Vector2d> com(static_cast<std::size_t>(n));
+    for (int k = 0; k < n; ++k) com[static_cast<std::size_t>(k)] = samples[static_cast<std::size_t>(k)].c;
     ReferenceMotion trial;
+    Eigen::MatrixXd A(info.nv, info.nv);
     for (int it = 0; it < options.balance_iterations; ++it) {
       for (int k = 0; k < n; ++k) {
-        const ZmpSample& z = zmp[static_cast<std::size_t>(k)];
-        // The moment the support lacks, per unit weight: a ZMP far out under a light load
-        // (a jump's take-off) asks for less shift than the same distance at full weight.
-        e[static_cast<std::size_t>(k)] =
-            z.defined ? Eigen::Vector2d(std::min(1.0, z.vertical_load) * (z.nearest - z.zmp)) : Eigen::Vector2d::Zero();
+        const Eigen::Vector2d d = target[static_cast<std::size_t>(k)] - com[static_cast<std::size_t>(k)];
+        // The base moves no further than the path may (a CoM the feet's reach holds back
+        // is not chased).
+        Eigen::Vector2d shift = (R_PW * shift_W[static_cast<std::size_t>(k)]).head<2>() + d;
+        shift = shift.cwiseMax(-options.max_com_shift_m).cwiseMin(options.max_com_shift_m);
+        shift_W[static_cast<std::size_t>(k)] = R_PW.topRows<2>().transpose() * shift;
       }
-      const std::vector<Eigen::Vector2d> delta = comShiftForZmp(e, dt, omega);
-      for (int k = 0; k < n; ++k)
-        shift_W[static_cast<std::size_t>(k)] += R_PW.topRows<2>().transpose() * delta[static_cast<std::size_t>(k)];
       solveClip(shift_W, trial);
-      zmp = zmpAgainstSupport(trial, model, supportOf(trial));
       result.motion = trial;
-      summarise(zmp, rep.zmp_frames_outside_after, rep.zmp_outside_max_after_m, rep.zmp_outside_rms_after_m);
-      if (rep.zmp_frames_outside_after == 0) break;
+      double worst = 0.0;
+      for (int k = 0; k < n; ++k) {
+        const ReferenceFrame& f = trial.frames[static_cast<std::size_t>(k)];
+        model.setState(f.q, f.v);
+        model.massMatrix(A);
+        com[static_cast<std::size_t>(k)] = (R_PW * centroidalState(A, f.q, f.v, info.total_mass).c_W).head<2>();
+        worst = std::max(worst, (target[static_cast<std::size_t>(k)] - com[static_cast<std::size_t>(k)]).norm());
+      }
+      rep.com_path_error_m = worst;
+      if (worst < 1e-3) break;
     }
+    zmp = zmpAgainstSupport(result.motion, model, supportOf(result.motion));
+    summarise(zmp, rep.zmp_frames_outside_after, rep.zmp_outside_max_after_m, rep.zmp_outside_rms_after_m);
     for (const Eigen::Vector3d& s : shift_W) {
       rep.com_shift_max_m = std::max(rep.com_shift_max_m, s.norm());
       rep.com_shift_rms_m += s.squaredNorm() / n;
@@ -669,6 +683,14 @@ std::string formatCleanupReport(const CleanupReport& report) {
                 1e3 * report.zmp_outside_rms_before_m, 1e3 * report.zmp_outside_rms_after_m,
                 1e3 * report.com_shift_max_m, 1e3 * report.com_shift_rms_m);
   out << line;
+  if (report.com_path.windows > 0) {
+    std::snprintf(line, sizeof line,
+                  "  balance: CoM path from %d QPs (%d short of tolerance), its ZMP up to %.1f mm outside "
+                  "the support; the IK's CoM within %.1f mm of it\n",
+                  report.com_path.windows, report.com_path.unsolved, 1e3 * report.com_path.max_violation_m,
+                  1e3 * report.com_path_error_m);
+    out << line;
+  }
   std::snprintf(line, sizeof line,
                 "  joint limits: %d joints outside before, %d after; excess %.4f -> %.4f rad RMS\n",
                 report.joints_outside_before, report.joints_outside_after,

@@ -11,6 +11,7 @@
 #include "dynfilter/io/input_error.hpp"
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
 
 namespace dynfilter::python {
 namespace {
@@ -116,7 +117,7 @@ struct Retargeted {
 Retargeted retargetClip(const io::RetargetResult& result, const io::RetargetMapping& mapping,
                         Model& model, bool cleanup) {
   Retargeted r{result, std::nullopt};
-  if (cleanup) r.cleanup = io::cleanupReference(result.motion, *model.engine, mapping.cleanup);
+  if (cleanup) r.cleanup = io::cleanupReference(result.motion, *model.engine, mapping.cleanup, proxqp::factory());
   return r;
 }
 

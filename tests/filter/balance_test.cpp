@@ -85,7 +85,7 @@ std::vector<ReferenceFrame> walkStart(IDynamicsModel& model, double seconds) {
       io::readBvh(test::sourcePath("data/mocap/cmu/131_01_start_walk_stop.bvh"), read_options);
   // As dynfilter-bvh2ref writes it: retargeted, then cleaned up (its default).
   const io::ReferenceMotion retargeted = io::retargetBvh(bvh, mapping, model).motion;
-  std::vector<ReferenceFrame> frames = io::cleanupReference(retargeted, model, mapping.cleanup).motion.frames;
+  std::vector<ReferenceFrame> frames = io::cleanupReference(retargeted, model, mapping.cleanup, proxqp::factory()).motion.frames;
   std::size_t n = 0;
   while (n < frames.size() && frames[n].time_s <= seconds + 1e-9) ++n;
   frames.resize(n);
@@ -265,6 +265,47 @@ TEST(Balance, AnUnsupportedReferenceThatNeedsSupportDoesNotLetGoOfTheGround) {
   EXPECT_EQ(filter.output().counters.reseeds, 0u);
   EXPECT_EQ(status_union & (kStatusReseeded | kStatusReferenceInfeasible | kStatusQpFallback), 0u)
       << "status union " << status_union;
+}
+
+// The DCM target where the reference's CoP stays inside its support is the reference's own
+// DCM, c + ċ/ω, exactly: a standing figure swaying 1 cm along x at 0.5 Hz and bobbing 1 cm
+// at 1 Hz (its pendulum's ω changes with its height and vertical acceleration), the whole
+// future in the preview. Before the target was the reference's DCM moved by what its support
+// cannot carry, it came from integrating the reference's CoP backwards with the present ω,
+// which the bobbing makes disagree.
+TEST(Balance, TheDcmTargetOfAReferenceInsideItsSupportIsItsOwnDcm) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const ModelInfo& info = model->info();
+  Eigen::VectorXd q0 = info.neutralConfiguration();
+  q0[2] = standingBaseHeight(*model, q0);
+  const double a = 0.01, w_sway = M_PI, w_bob = 2.0 * M_PI;
+  auto frameAt = [&](double t) {
+    ReferenceFrame f(info.nq, info.nv);
+    f.time_s = t;
+    f.q = q0;
+    f.q[0] += a * std::sin(w_sway * t);
+    f.q[2] += a * std::sin(w_bob * t);
+    f.v[0] = a * w_sway * std::cos(w_sway * t);
+    f.v[2] = a * w_bob * std::cos(w_bob * t);
+    f.vdot[0] = -a * w_sway * w_sway * std::sin(w_sway * t);
+    f.vdot[2] = -a * w_bob * w_bob * std::sin(w_bob * t);
+    return f;
+  };
+  BalanceOptions options;
+  options.preview_s = 10.0;
+  options.preview_capacity = 1024;
+  BalanceLayer layer(*model, options);
+  for (int k = 0; k <= 400; ++k) ASSERT_TRUE(layer.pushPreview(*model, frameAt(k / 100.0)));
+  double worst = 0.0;
+  for (const double t : {0.305, 0.81, 1.333, 2.0, 2.52}) {
+    layer.prepare(*model, frameAt(t), 1e-3);
+    const BalanceState& s = layer.state();
+    const double omega = std::sqrt(kGravity / s.reference.c_W.z());
+    const Eigen::Vector2d xi = s.reference.c_W.head<2>() + s.reference.cdot_W.head<2>() / omega;
+    worst = std::max(worst, (s.dcm_desired - xi).norm());
+    EXPECT_EQ(s.infeasible, InfeasibleReason::kNone);
+  }
+  EXPECT_LT(worst, 1e-9);
 }
 
 // Flat landing: a sole that touches down on its heel edge holds a face link over its whole

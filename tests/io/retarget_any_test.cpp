@@ -19,6 +19,7 @@
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "support/test_support.hpp"
 
 namespace dynfilter::io {
@@ -361,7 +362,7 @@ TEST(ReferenceCleanup, StanceFeetStayStillOnTheGroundAndJointsInsideLimits) {
     motion.frames.push_back(f);
   }
   estimateDerivatives(motion.frames, true, 7, true, true);
-  const CleanupResult r = cleanupReference(motion, *model, ReferenceCleanupOptions{});
+  const CleanupResult r = cleanupReference(motion, *model, ReferenceCleanupOptions{}, proxqp::factory());
   ASSERT_EQ(r.schedule.links, (std::vector<std::string>{"sole_l", "sole_r"}));
   for (const auto& row : r.schedule.stance) {
     EXPECT_EQ(row[0], 1);

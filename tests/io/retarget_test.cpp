@@ -14,6 +14,7 @@
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "io/io_test_support.hpp"
 #include "support/test_support.hpp"
 
@@ -540,7 +541,7 @@ TEST(ReferenceCleanup, ShippedClipsHaveStillFeetAndNoJumps) {
   for (const Clip& c : kClips) {
     SCOPED_TRACE(c.name);
     const Retargeted clip = retargetClip(c, *model);
-    const CleanupResult r = cleanupReference(clip.result.motion, *model, clip.mapping.cleanup);
+    const CleanupResult r = cleanupReference(clip.result.motion, *model, clip.mapping.cleanup, proxqp::factory());
     for (const FootReport& f : r.report.feet) {
       EXPECT_GT(f.stance_runs, 0) << f.link;
       // Measured: at most 1.4 mm (the jump's left foot) since the clean-up low-passes its

@@ -345,6 +345,7 @@ TEST(LcmProcesses, BadReferenceFramesAreRejectedAndTheFilterKeepsPublishing) {
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
 
 namespace dynfilter {
 namespace {
@@ -360,7 +361,7 @@ TEST(LcmProcesses, ReplayStreamsABvhCapture) {
   const io::RetargetMapping retarget_mapping = io::readRetargetMapping(mapping);
   // The replay streams what dynfilter-bvh2ref writes: retargeted, then cleaned up.
   const auto expected = io::cleanupReference(io::retargetBvhFile(bvh, retarget_mapping, *model).motion,
-                                             *model, retarget_mapping.cleanup);
+                                             *model, retarget_mapping.cleanup, proxqp::factory());
 
   const std::string url = uniqueUrl();
   lcm::LCM lcm(url);

@@ -18,6 +18,7 @@
 #include "model_cli.hpp"
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
 
 namespace {
 // reference.csv -> reference.stance.csv
@@ -91,7 +92,7 @@ int main(int argc, char** argv) {
     dynfilter::io::ReferenceMotion motion = result.motion;
     if (!no_cleanup) {
       dynfilter::io::CleanupResult cleaned =
-          dynfilter::io::cleanupReference(result.motion, *model, mapping.cleanup);
+          dynfilter::io::cleanupReference(result.motion, *model, mapping.cleanup, dynfilter::proxqp::factory());
       motion = std::move(cleaned.motion);
       const std::string contacts = contactsPath(out_path);
       dynfilter::io::writeContactScheduleCsv(contacts, cleaned.schedule);

@@ -27,6 +27,7 @@
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/lcm/messages.hpp"
 #include "dynfilter/realtime/replay_player.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "model_cli.hpp"
 #include "process_support.hpp"
 
@@ -80,7 +81,7 @@ int main(int argc, char** argv) {
         if (no_cleanup) {
           clips.push_back({f, retargeted.motion.frames});
         } else {  // the same reference as dynfilter-bvh2ref writes
-          const io::CleanupResult cleaned = io::cleanupReference(retargeted.motion, *model, mapping.cleanup);
+          const io::CleanupResult cleaned = io::cleanupReference(retargeted.motion, *model, mapping.cleanup, proxqp::factory());
           std::fprintf(stderr, "%s", io::formatCleanupReport(cleaned.report).c_str());
           clips.push_back({f, cleaned.motion.frames});
         }

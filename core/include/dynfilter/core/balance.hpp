@@ -150,6 +150,7 @@ class BalanceLayer {
   struct Sample {
     double t = 0.0;
     Eigen::Vector3d c = Eigen::Vector3d::Zero(), cdot = Eigen::Vector3d::Zero();
+    Eigen::Vector3d L = Eigen::Vector3d::Zero();  // angular momentum about c, world axes
     int num_support = 0;
     std::array<Eigen::Vector2d, kMaxSupport> support;  // convex hull, counter-clockwise
     std::uint64_t stance = 0;  // bodies (< 64) in stance
@@ -170,8 +171,17 @@ class BalanceLayer {
                     std::size_t s, int rows, QpObjectiveTasks& tasks);
   const Sample& at(int i) const;  // 0 = oldest
   double groundHeight(const Eigen::Vector2d& p_xy) const;
-  // Reference CoP (LIPM) over [a, b], clamped into a's support.
-  Eigen::Vector2d segmentCop(const Sample& a, const Sample& b, Eigen::Vector3d* cddot) const;
+  // Reference CoP over [a, b] of the wrench it needs (force m (c̈ + g), moment L̇ about c),
+  // clamped into a's support; c̈ and L̇ are the changes from `before` to `after`, samples
+  // about kAccelHalfWindowS around the segment (captured motion's second derivative is
+  // noisy). excess (optional): the clamped CoP minus the unclamped one.
+  Eigen::Vector2d segmentCop(const Sample& before, const Sample& a, const Sample& b, const Sample& after,
+                             Eigen::Vector3d* cddot, Eigen::Vector2d* excess = nullptr) const;
+  // The latest preview sample at or before time t, from i backwards (at most i); the
+  // earliest at or after t, from i forwards.
+  int sampleBefore(int i, double t) const;
+  int sampleAfter(int i, double t) const;
+  static constexpr double kAccelHalfWindowS = 0.04;
 
   BalanceOptions options_;
   const ModelInfo& info_;

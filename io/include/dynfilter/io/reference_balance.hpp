@@ -12,18 +12,16 @@
 /// σ = 40 ms (captured motion's second derivative is noisy; the pendulum's time constant is
 /// ~0.3 s). The ZMP is defined where F_z > 0.2 m g and some body supports the motion.
 ///
-/// Shift: moving the CoM by δ(t) along the plane moves the ZMP by δ − δ̈/ω² (linear
-/// inverted pendulum, ω = √(g/h)). The δ that moves each frame's ZMP by e_k solves
-/// δ_k − (δ_{k+1} − 2δ_k + δ_{k−1}) / (ω² Δt²) = e_k with zero slope at both ends: a
-/// symmetric, diagonally dominant tridiagonal system, solved exactly. Its answer is e
-/// smoothed by the kernel (ω/2) e^{−ω|t|}: it uses the past and the future of the clip.
-/// Not for per-tick use (allocates).
+/// Shift: the nearest CoM path whose ZMP, as a pendulum's (c − β c̈ + the reference's own
+/// L̇ share, β = h / (g + z̈)), stays in the support: a QP per window of the clip, so that it
+/// uses the past and the future (feasibleComPath). Not for per-tick use (allocates).
 
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "dynfilter/core/dynamics_model.hpp"
+#include "dynfilter/core/qp_solver.hpp"
 #include "dynfilter/io/reference_motion.hpp"
 
 namespace dynfilter::io {
@@ -48,8 +46,52 @@ struct ZmpSample {
 std::vector<ZmpSample> zmpAgainstSupport(const ReferenceMotion& motion, IDynamicsModel& model,
                                          const std::vector<std::vector<Eigen::Vector3d>>& support_W);
 
-/// δ (plane frame, m) per frame with δ − δ̈/ω² = @p e (see file comment); @p dt_s the frame
-/// period, @p omega ω (1/s). @throws std::invalid_argument on dt_s or omega ≤ 0.
-std::vector<Eigen::Vector2d> comShiftForZmp(const std::vector<Eigen::Vector2d>& e, double dt_s, double omega);
+/// One frame of a reference motion as a pendulum on its support (plane frame P).
+/// ZMP = c − β c̈ + o along the plane, with β = h / (g + z̈) and o the share of the
+/// reference's L̇ (both from the smoothed wrench the motion needs).
+struct PendulumSample {
+  double time_s = 0.0;
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();  ///< CoM along the plane (m)
+  double load = 0.0;      ///< F_z / (m g) of the needed force
+  double beta_s2 = 0.0;   ///< β (s²); 0 where the frame has no support or load < 0.2
+  Eigen::Vector2d moment_offset = Eigen::Vector2d::Zero();  ///< o (m)
+  std::vector<Eigen::Vector2d> support;  ///< hull, counter-clockwise; empty: no support
+};
+
+/// The pendulum of every frame of @p motion against @p support_W (as zmpAgainstSupport).
+/// Changes the model's state. @throws std::invalid_argument on a fixed-base model or
+/// mismatched sizes.
+std::vector<PendulumSample> pendulumSamples(const ReferenceMotion& motion, IDynamicsModel& model,
+                                            const std::vector<std::vector<Eigen::Vector3d>>& support_W);
+
+/// Settings of feasibleComPath.
+struct FeasibleComOptions {
+  double grid_s = 1.0 / 30.0;  ///< the path's time step (s); the frames between are interpolated
+  double window_s = 3.0;       ///< each QP plans this far; consecutive windows overlap by half
+  double max_shift_m = 0.25;   ///< |c* − c| per axis (m)
+  double friction = 0.7;       ///< |c̈| per axis ≤ friction · g · load
+  double accel_weight = 1e-3;  ///< per (m/s²)² and grid point, against 1 per m² of shift
+  double slack_weight = 1e4;   ///< per m² of ZMP outside the support
+  /// @throws std::invalid_argument on a value out of range.
+  void validate() const;
+};
+
+/// What feasibleComPath met.
+struct FeasibleComReport {
+  int windows = 0;
+  int unsolved = 0;               ///< windows whose QP stopped short of its tolerance
+  double max_violation_m = 0.0;   ///< largest ZMP distance outside the support left (slack)
+};
+
+/// The centre-of-mass path nearest to the samples' that the pendulum can follow: per grid
+/// point, ZMP inside the support (softly: a slack per point, weighted heavily) and the
+/// horizontal force inside a friction box, with a small acceleration cost; a QP per
+/// window, solved by @p qp_solver, each continuing the last. Frames between grid points
+/// get the shift interpolated linearly. Not for per-tick use (allocates).
+/// @throws std::invalid_argument on invalid options, times that do not increase or no solver.
+std::vector<Eigen::Vector2d> feasibleComPath(const std::vector<PendulumSample>& samples,
+                                             const FeasibleComOptions& options,
+                                             const QpSolverFactory& qp_solver,
+                                             FeasibleComReport* report = nullptr);
 
 }  // namespace dynfilter::io

@@ -55,6 +55,7 @@
 #include <vector>
 
 #include "dynfilter/core/dynamics_model.hpp"
+#include "dynfilter/io/reference_balance.hpp"
 #include "dynfilter/io/reference_motion.hpp"
 
 namespace dynfilter::io {
@@ -76,11 +77,13 @@ struct ReferenceCleanupOptions {
   double continuity_weight = 1.0;
   int smoothing_window = 7;       ///< estimateDerivatives window (odd, ≥ 3)
   /// Balance stage: the zero-moment point brought into the stance soles' support by moving
-  /// the base along the ground, the feet kept (reference_balance.hpp). Off by default: on
-  /// the CMU clips it does not converge (docs/balance.md §7)
-  bool balance = false;
+  /// the base along the ground onto the nearest CoM path a pendulum can follow, the feet
+  /// kept (reference_balance.hpp; docs/balance.md §9). Needs the QP solver of
+  /// cleanupReference.
+  bool balance = true;
   double zmp_margin_m = 0.02;     ///< the support shrunk by this towards each sole's centre (m)
   int balance_iterations = 4;     ///< at most this many shift-and-solve rounds
+  double max_com_shift_m = 0.25;  ///< the CoM moved by at most this per axis (m)
 
   /// @throws std::invalid_argument naming the option on a bad value.
   void validate() const;
@@ -121,6 +124,8 @@ struct CleanupReport {
   double zmp_outside_max_before_m = 0.0, zmp_outside_max_after_m = 0.0;
   double zmp_outside_rms_before_m = 0.0, zmp_outside_rms_after_m = 0.0;
   double com_shift_max_m = 0.0, com_shift_rms_m = 0.0;  ///< the base moved along the ground
+  FeasibleComReport com_path;      ///< the balance stage's CoM path (reference_balance.hpp)
+  double com_path_error_m = 0.0;   ///< largest distance of the IK's CoM from that path
 };
 
 struct CleanupResult {
@@ -139,7 +144,7 @@ ContactSchedule findContactSchedule(const ReferenceMotion& motion, IDynamicsMode
 /// Cleans @p motion up (see file comment). Changes the model's state.
 /// @throws as findContactSchedule.
 CleanupResult cleanupReference(const ReferenceMotion& motion, IDynamicsModel& model,
-                               const ReferenceCleanupOptions& options);
+                               const ReferenceCleanupOptions& options, const QpSolverFactory& qp_solver);
 
 /// Stance-foot skate of a motion against a schedule: per foot the worst horizontal slide
 /// of a sole point while it touches the ground (within 5 mm) in a stance run (m), and the deepest sole
