@@ -232,7 +232,7 @@ class MappingParser {
                 readMap(v, "cleanup",
                         {"feet", "contact_height", "contact_speed", "min_phase_s",
                          "base_weight", "posture_weight", "leg_weight", "continuity_weight", "lowpass_hz", "balance",
-                         "zmp_margin_m", "balance_iterations"},
+                         "zmp_margin_m", "balance_iterations", "max_com_shift_m"},
                         [&](const std::string& ck, const YAML::Node& cv) {
                   const std::string key = "cleanup." + ck;
                   if (ck == "feet") c.feet = names(cv, key);
@@ -247,6 +247,7 @@ class MappingParser {
                   if (ck == "balance") c.balance = boolean(cv, key);
                   if (ck == "zmp_margin_m") c.zmp_margin_m = number(cv, key);
                   if (ck == "balance_iterations") c.balance_iterations = integer(cv, key);
+                  if (ck == "max_com_shift_m") c.max_com_shift_m = number(cv, key);
                   try {
                     c.validate();
                   } catch (const std::invalid_argument& e) {

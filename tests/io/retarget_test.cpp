@@ -516,6 +516,20 @@ TEST(Retarget, MappingErrorsNameTheLine) {
                InputError);
   EXPECT_THROW(parseRetargetMapping("length_scale: -1\nsegments: []\n", "m.yaml"), InputError);
   EXPECT_THROW(parseRetargetMapping("segments: [\n", "m.yaml"), InputError);
+  // The clean-up's balance keys; a bad value is named.
+  const RetargetMapping balanced = parseRetargetMapping(
+      "segments: []\ncleanup: {balance: false, max_com_shift_m: 0.1, balance_iterations: 2}\n", "m.yaml");
+  EXPECT_FALSE(balanced.cleanup.balance);
+  EXPECT_EQ(balanced.cleanup.max_com_shift_m, 0.1);
+  EXPECT_EQ(balanced.cleanup.balance_iterations, 2);
+  EXPECT_TRUE(ReferenceCleanupOptions{}.balance);
+  try {
+    parseRetargetMapping("segments: []\ncleanup: {max_com_shift_m: 0}\n", "m.yaml");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 2);
+    EXPECT_NE(e.reason().find("max_com_shift_m"), std::string::npos) << e.reason();
+  }
   // A BVH joint that the file does not have: the mapping's line.
   auto model = humanFigure();
   const RetargetMapping mapping = parseRetargetMapping(

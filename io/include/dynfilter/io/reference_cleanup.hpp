@@ -40,12 +40,13 @@
 ///    change near the reference's own change, so the answer follows one branch over the
 ///    clip. The answer is low-passed again (lowpass_hz) and solved once more with it as the
 ///    posture, so that the feet are exact. Velocities and accelerations are estimated again.
-///  - Balance (ReferenceCleanupOptions::balance, off by default): where the clip's zero-moment point leaves
-///    the support of its stance soles (shrunk by zmp_margin_m), the base is moved along the
-///    ground by the shift δ with δ − δ̈/ω² = the ZMP's distance to the support (whole clip,
-///    past and future: reference_balance.hpp) and the IK solved again with the same foot
-///    targets; repeated up to balance_iterations times. The base and its upper body carry
-///    the shift; the legs bend to keep the feet.
+///  - Balance (ReferenceCleanupOptions::balance, on by default): where the clip's zero-moment
+///    point leaves the support of its stance soles (shrunk by zmp_margin_m), the nearest CoM
+///    path a pendulum can follow on that support is found (feasibleComPath, over the clip's
+///    past and future: reference_balance.hpp), the base is moved along the ground towards it
+///    (at most max_com_shift_m per axis) and the IK solved again with the same foot targets,
+///    until the CoM is on the path or balance_iterations rounds are done. The base and its
+///    upper body carry the shift; the legs bend to keep the feet.
 ///  - Report: per joint max and RMS change, overall RMS; per foot the stance skate (largest
 ///    horizontal slide of a sole point while it touches the ground, within 5 mm, during a
 ///    stance run) and the largest penetration of a sole point, before and after; limit
