@@ -41,12 +41,16 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
     sed -n 's/^\(test_[a-z0-9_]*\|fuzz_replay_[a-z0-9_]*\): phony$/\1/p' |
     grep -vxE 'test_processes')"
   cmake --build build-asan --target $asan_targets
+  # ReferenceCleanup.ShippedClipsHaveStillFeetAndNoJumps cleans every shipped clip up with
+  # the defaults: 30 s in Release since the balance stage is on, beyond the 600 s timeout
+  # here; the Release run keeps it, and the Balance.*CmuWalk tests run the same clean-up on
+  # the walk under the sanitizers.
   # (The QP-mode tests run here too: ProxQP 0.7.2 read uninitialised bools of its workspace,
   # which UBSan caught; solvers/proxqp now initialises them.)
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E "$(printf '%s|' \
     '_NOT_BUILT$' '^LcmProcesses\.' '^soak' '^paper_results' '^plot_lcm_log$' '^exported_package' \
     '^lcm_python_types$' '^lcm_spy_' '^human_figure_is_regenerated' '^core_include_guard' \
-    '^examples_build' '^python_' '^balance_matrix_' \
+    '^examples_build' '^python_' '^balance_matrix_' '^ReferenceCleanup\.ShippedClipsHaveStillFeetAndNoJumps$' \
     | sed 's/|$//')"
   unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
 fi
