@@ -4,7 +4,7 @@
 # dynfilter_core_include_guard target on every build; SOURCE_DIR is the project root.
 set(layers core solvers backends io realtime lcm)
 set(allowed_core     "core")
-set(allowed_solvers  "core|proxqp")
+set(allowed_solvers  "core|proxqp|daqp|qp_engines")
 set(allowed_backends "core|urdf|dart|ode|backends")
 set(allowed_io       "core|io")
 set(allowed_realtime "core|realtime")

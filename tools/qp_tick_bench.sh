@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Tick-time statistics of the filter over every tick of the four CMU results (walk, walk on
 # a 5° slope, jump, kick), as BENCHMARKS.md reports them ("QP tick, every tick").
-# Usage: [RUN_PREFIX="nice -n -20 taskset -c 1"] tools/qp_tick_bench.sh [build-dir] [paper|qp] [work-dir]
+# Usage: [RUN_PREFIX="nice -n -20 taskset -c 1"] [CONFIG=c.yaml] tools/qp_tick_bench.sh [build-dir] [paper|qp] [work-dir]
 # (RUN_PREFIX: the filter at the highest nice priority on one CPU, so that other load
-# interrupts it less; SCHED_FIFO would be throttled for 50 ms after 0.95 s of full load.)
+# interrupts it less; SCHED_FIFO would be throttled for 50 ms after 0.95 s of full load.
+# CONFIG: a filter configuration for every run, e.g. one with qp: {engine: proxqp}.)
 set -euo pipefail
 B=${1:-build}; MODE=${2:-qp}; W=${3:-/tmp/dynfilter-tick-bench}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -24,7 +25,7 @@ PY
 run() {  # name ref extra...
   local name=$1 ref=$2; shift 2
   ${RUN_PREFIX:-} "$B/tools/offline/dynfilter-offline" "$W/$ref.csv" -o "$W/${name}_$MODE.csv" --mode "$MODE" \
-      --every-tick "$@" > "$W/${name}_$MODE.log" 2>&1
+      --every-tick ${CONFIG:+--config "$CONFIG"} "$@" > "$W/${name}_$MODE.log" 2>&1
 }
 run walk 131_01; run slope 131_01 --slope-deg 5 --slope-heading-deg "$heading"
 run jump 01_01; run kick 10_01

@@ -26,7 +26,7 @@
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/dart/attached_filter.hpp"
 #include "dynfilter/io/reference_motion.hpp"
-#include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/daqp/daqp_solver.hpp"
 
 using namespace dart::dynamics;
 
@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
     options.dt_s = world->getTimeStep();
     if (qp) options.mode = dynfilter::FilterMode::kQp;
     dynfilter::dart_backend::AttachedFilter filter(robot, world, options,
-                                                   dynfilter::proxqp::factory());
+                                                   dynfilter::daqp::factory());
     const dynfilter::ModelInfo& info = filter.model().info();
     const auto motion = dynfilter::io::readReferenceMotion(argv[2], info);
     const auto& frames = motion.frames;

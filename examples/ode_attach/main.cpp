@@ -17,7 +17,7 @@
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/io/reference_motion.hpp"
 #include "dynfilter/ode/attached_filter.hpp"
-#include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/daqp/daqp_solver.hpp"
 #include "figure_world.hpp"
 
 int main(int argc, char** argv) {
@@ -33,7 +33,7 @@ int main(int argc, char** argv) {
     dynfilter::FilterOptions options;
     options.dt_s = 1e-3;
     if (qp) options.mode = dynfilter::FilterMode::kQp;
-    dynfilter::ode_backend::AttachedFilter filter(user.robot, options, dynfilter::proxqp::factory());
+    dynfilter::ode_backend::AttachedFilter filter(user.robot, options, dynfilter::daqp::factory());
     const dynfilter::ModelInfo& info = filter.model().info();
     const auto motion = dynfilter::io::readReferenceMotion(argv[2], info);
     const auto& frames = motion.frames;

@@ -227,7 +227,7 @@ class Parser {
             {"accel_weight", "force_weight", "torque_weight", "min_normal_force_n",
              "friction_facets", "cop_margin_m", "liftoff_clearance_m", "release_transition_s",
              "joint_limit_horizon_s", "joint_limit_max_decel", "enforce_torque_limits", "enforce_joint_limits", "eps_abs",
-             "max_iterations", "warm_start"},
+             "max_iterations", "warm_start", "engine"},
             [&](const std::string& k, const Entry& v) {
               if (k == "accel_weight") q.accel_weight = number(v);
               if (k == "force_weight") q.force_weight = number(v);
@@ -244,6 +244,7 @@ class Parser {
               if (k == "eps_abs") q.solver.eps_abs = number(v);
               if (k == "max_iterations") q.solver.max_iterations = integer(v);
               if (k == "warm_start") q.solver.warm_start = boolean(v);
+              if (k == "engine") q.solver.engine = text(v);
             });
   }
 

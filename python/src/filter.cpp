@@ -14,7 +14,7 @@
 #include "dynfilter/io/filtered_motion_check.hpp"
 #include "dynfilter/io/filtered_motion_reader.hpp"
 #include "dynfilter/io/offline_run.hpp"
-#include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/qp_engines/qp_engines.hpp"
 
 namespace dynfilter::python {
 namespace {
@@ -191,7 +191,7 @@ class Filter {
  public:
   Filter(const Model& model, const io::FilterConfig& config)
       : engine_(model.make(config.environment)),
-        filter_(*engine_, config.filter, proxqp::factory()),
+        filter_(*engine_, config.filter, qp_engines::factory(config.filter.qp.solver.engine)),
         ref_(engine_->nq(), engine_->nv()) {}
 
   void reset(const VectorXd& q, const std::optional<VectorXd>& v,
@@ -258,7 +258,7 @@ py::dict filterMotion(const Model& model, const Reference& reference,
     py::gil_scoped_release release;
     long report_every = 1;
     schedule = io::runOffline(
-        *engine, config.filter, reference.motion, options, proxqp::factory(),
+        *engine, config.filter, reference.motion, options, qp_engines::factory(config.filter.qp.solver.engine),
         [&](const io::OfflineTick& tick) {
           if (tick.index == 0) report_every = std::max(1L, tick.count / 100);
           if (tick.row) {

@@ -19,7 +19,7 @@
 
 #include "dynfilter/dart/attached_filter.hpp"
 #include "dynfilter/ode/attached_filter.hpp"
-#include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/qp_engines/qp_engines.hpp"
 #include "figure_world.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/test_support.hpp"
@@ -37,7 +37,7 @@ SquatResult squatOnOde(FilterMode mode, double seconds) {
   FigureWorld user(test::humanFigurePath());
   FilterOptions options;
   options.mode = mode;
-  ode_backend::AttachedFilter filter(user.robot, options, proxqp::factory());
+  ode_backend::AttachedFilter filter(user.robot, options, qp_engines::factory(options.qp.solver.engine));
   const ModelInfo& info = filter.model().info();
   const auto motion = io::readReferenceMotion(test::sourcePath("data/squat_reference.csv"), info);
   const auto& frames = motion.frames;
@@ -90,7 +90,7 @@ SquatResult squatOnDart(FilterMode mode, double seconds) {
   auto& robot = user.robot;
   FilterOptions options;
   options.mode = mode;
-  dart_backend::AttachedFilter filter(robot, world, options, proxqp::factory());
+  dart_backend::AttachedFilter filter(robot, world, options, qp_engines::factory(options.qp.solver.engine));
   const ModelInfo& info = filter.model().info();
   const auto motion = io::readReferenceMotion(test::sourcePath("data/squat_reference.csv"), info);
   const auto& frames = motion.frames;
@@ -188,7 +188,7 @@ TEST(AttachedAllocation, OdeControllerTickAllocatesNothing) {
     FigureWorld user(test::humanFigurePath());
     FilterOptions options;
     options.mode = mode;
-    ode_backend::AttachedFilter filter(user.robot, options, proxqp::factory());
+    ode_backend::AttachedFilter filter(user.robot, options, qp_engines::factory(options.qp.solver.engine));
     const auto motion =
         io::readReferenceMotion(test::sourcePath("data/squat_reference.csv"), filter.model().info());
     filter.placeAt(motion.frames.front());
@@ -290,7 +290,7 @@ TEST(AttachedAllocation, DartControllerTickAllocatesNothingOutsideDart) {
     options.mode = mode;
     dart_backend::AttachedFilter filter(
         std::make_unique<MeasuredSkeletonModel>(dart_backend::attachDartModel(user.robot, user.world)),
-        options, proxqp::factory());
+        options, qp_engines::factory(options.qp.solver.engine));
     const auto motion =
         io::readReferenceMotion(test::sourcePath("data/squat_reference.csv"), filter.model().info());
     filter.placeAt(motion.frames.front());

@@ -18,6 +18,7 @@
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/dynamics_simulator.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/allocation_counter.hpp"
 #include "support/reference_motions.hpp"
@@ -139,16 +140,19 @@ TEST(Allocation, FilterStepAllocatesNothingInTheCore) {
   expectNoCoreAllocations(static_cast<long>(lifted.size()));
 }
 
-TEST(Allocation, QpModeSteadyStateTickAllocatesNothingInTheCore) {
+// The QP mode on the standing figure (two face links, the 12-slot size class), with each
+// QP engine. The engine is not a backend: what it allocates inside solve() counts as the
+// core's.
+class AllocationQp : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(AllocationQp, QpModeSteadyStateTickAllocatesNothingInTheCore) {
   if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
-  // The QP mode on the standing figure (two face links, the 12-slot size class). ProxQP is
-  // not a backend: what it allocates inside solve() counts as the core's.
   auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const auto frames = test::simulateStandingSway(*dart, 0.4, 1e-3);
   MeasuredModel model(*dart);
   FilterOptions options;
   options.mode = FilterMode::kQp;
-  DynamicsFilter filter(model, options, proxqp::factory());
+  DynamicsFilter filter(model, options, qp_engines::factory(GetParam()));
   filter.reset(frames.front());
   for (int k = 0; k < 50; ++k) filter.step(frames[static_cast<std::size_t>(k)]);  // warm up
   std::uint32_t seen = 0;
@@ -173,6 +177,8 @@ TEST(Allocation, QpModeSteadyStateTickAllocatesNothingInTheCore) {
   EXPECT_GT(filter.output().counters.qp_iterations, iterations_before) << "the solver iterated";
   expectNoCoreAllocations(ticks);
 }
+
+INSTANTIATE_TEST_SUITE_P(Engines, AllocationQp, ::testing::Values("daqp", "proxqp"));
 
 TEST(Allocation, CountingWorks) {
   if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";

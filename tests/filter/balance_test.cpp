@@ -19,6 +19,7 @@
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/test_support.hpp"
 
@@ -108,7 +109,7 @@ WalkWindow runWalk(double seconds) {
   const int substeps = 4;
   FilterOptions options = qpDefaults((frames[1].time_s - frames[0].time_s) / substeps);
   options.balance.preview_s = 2.0;  // offline: the clip's future
-  DynamicsFilter filter(*model, options, proxqp::factory());
+  DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(frames.front());
   std::size_t previewed = 0;
   ReferenceFrame ref(info.nq, info.nv);
@@ -195,7 +196,7 @@ Unfollowable standStill(const ModelOptions& model_options, double lift_m, double
   auto level = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), flat);
   ref.q[2] = standingBaseHeight(*level, ref.q) + lift_m;
   const FilterOptions options = qpDefaults(1e-3);
-  DynamicsFilter filter(*model, options, proxqp::factory());
+  DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(ref);
   Unfollowable u;
   for (int k = 0; k < static_cast<int>(seconds / options.dt_s); ++k) {
@@ -249,7 +250,7 @@ TEST(Balance, AnUnsupportedReferenceThatNeedsSupportDoesNotLetGoOfTheGround) {
   const double stand_z = standingBaseHeight(*model, ref.q);
   ref.q[2] = stand_z;
   const FilterOptions options = qpDefaults(1e-3);
-  DynamicsFilter filter(*model, options, proxqp::factory());
+  DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(ref);
   int fewest_contacts = 100;
   std::uint32_t status_union = 0;

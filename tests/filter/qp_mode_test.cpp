@@ -18,6 +18,7 @@
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/reference_motions.hpp"
 #include "support/test_support.hpp"
@@ -116,7 +117,7 @@ TEST(QpModeOptions, QpModeWithoutASolverFactoryThrows) {
     EXPECT_NE(std::string(e.what()).find("QP solver"), std::string::npos) << e.what();
   }
   // The same options with a factory construct, and paper mode needs none.
-  EXPECT_NO_THROW(DynamicsFilter(*model, qpOptions(), proxqp::factory()));
+  EXPECT_NO_THROW(DynamicsFilter(*model, qpOptions(), qp_engines::factory(QpSolverSettings{}.engine)));
   EXPECT_NO_THROW(DynamicsFilter(*model, FilterOptions{}));
 }
 
@@ -125,13 +126,13 @@ TEST(QpModeOptions, TaskConstraintRowsAreRejectedInQpMode) {
   FilterOptions options = qpOptions();
   options.task.as_constraint_rows = true;
   try {
-    DynamicsFilter filter(*model, options, proxqp::factory());
+    DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("as_constraint_rows"), std::string::npos) << e.what();
   }
   options.task.enabled = false;  // no task point: the rows do not exist, nothing to reject
-  EXPECT_NO_THROW(DynamicsFilter(*model, options, proxqp::factory()));
+  EXPECT_NO_THROW(DynamicsFilter(*model, options, qp_engines::factory(QpSolverSettings{}.engine)));
 }
 
 TEST(QpModeOptions, FactoryThatReturnsNoSolverIsRejected) {
@@ -151,7 +152,7 @@ TEST(QpModeStanding, StaticStanceCarriesTheWeightWithTheCopOnTheSoles) {
   const ReferenceFrame ref = standingReference(*model);
   const double weight = info.total_mass * kGravity;
   const double mu = model->environment().ground.friction;
-  DynamicsFilter filter(*model, qpOptions(), proxqp::factory());
+  DynamicsFilter filter(*model, qpOptions(), qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(ref);
   PhysicsCheck check;
   const int ticks = 1500;
@@ -237,7 +238,7 @@ TEST(QpModeStanding, SwayingSquatKeepsContactsPhysical) {
   const ModelInfo& info = model->info();
   const auto frames = test::simulateStandingSway(*model, 1.0, 1e-3);
   const double weight = info.total_mass * kGravity;
-  DynamicsFilter filter(*model, qpOptions(), proxqp::factory());
+  DynamicsFilter filter(*model, qpOptions(), qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(frames.front());
   PhysicsCheck check;
   std::uint32_t status_union = 0;
@@ -271,7 +272,7 @@ struct ClipRun {
 
 ClipRun filterClip(IDynamicsModel& model, const std::vector<ReferenceFrame>& frames, int substeps,
                    const FilterOptions& options) {
-  DynamicsFilter filter(model, options, proxqp::factory());
+  DynamicsFilter filter(model, options, qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(frames.front());
   ReferenceFrame ref(model.nq(), model.nv());
   const double dt = options.dt_s;
@@ -579,7 +580,7 @@ RampRun runRamp(double transition_s) {
   options.qp.release_transition_s = transition_s;
   options.feedback.joint_kp = 4.0;  // weak: see above
   options.feedback.joint_kd = 4.0;
-  DynamicsFilter filter(*model, options, proxqp::factory());
+  DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(frames.front());
   const int l_foot = info.findBody("l_foot");
   const double f_min = options.qp.min_normal_force_n;
@@ -687,7 +688,7 @@ TEST(QpModeReleaseRamp, NoSoleUnloadsFasterThanTheRateBoundWithDefaultGains) {
   const double dt = 1e-3;
   const auto frames = liftLeftFootReference(*model, dt, 0.05, 0.2);
   FilterOptions options = qpOptions(dt);
-  DynamicsFilter filter(*model, options, proxqp::factory());
+  DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(frames.front());
   const double weight = info.total_mass * 9.81, T = options.qp.release_transition_s;
   const int feet[2] = {info.findBody("l_foot"), info.findBody("r_foot")};

@@ -61,6 +61,7 @@ void expectSameFilterOptions(const FilterOptions& a, const FilterOptions& b) {
   EXPECT_EQ(a.qp.solver.eps_abs, b.qp.solver.eps_abs);
   EXPECT_EQ(a.qp.solver.max_iterations, b.qp.solver.max_iterations);
   EXPECT_EQ(a.qp.solver.warm_start, b.qp.solver.warm_start);
+  EXPECT_EQ(a.qp.solver.engine, b.qp.solver.engine);
   EXPECT_EQ(a.divergence.max_base_error_m, b.divergence.max_base_error_m);
   EXPECT_EQ(a.divergence.max_base_rotation_rad, b.divergence.max_base_rotation_rad);
   EXPECT_EQ(a.divergence.max_joint_error_rad, b.divergence.max_joint_error_rad);
@@ -135,7 +136,7 @@ TEST(ConfigFile, ShippedDefaultFileListsEveryKeyOnceWithAComment) {
       {"cop_margin_m", 1}, {"liftoff_clearance_m", 1}, {"release_transition_s", 1},
       {"joint_limit_horizon_s", 1}, {"joint_limit_max_decel", 1},
       {"enforce_torque_limits", 1}, {"enforce_joint_limits", 1}, {"eps_abs", 1},
-      {"max_iterations", 1}, {"warm_start", 1}, {"divergence", 1}, {"max_base_error_m", 1},
+      {"max_iterations", 1}, {"warm_start", 1}, {"engine", 1}, {"divergence", 1}, {"max_base_error_m", 1},
       {"max_base_rotation_rad", 1}, {"max_joint_error_rad", 1}, {"max_base_residual_rel", 1},
       {"max_degraded_ticks", 1}, {"balance", 1}, {"com_weight", 1}, {"dcm_gain", 1},
       {"height_kp", 1}, {"height_kd", 1}, {"angular_momentum_damping", 1},
@@ -319,7 +320,8 @@ TEST(ConfigFile, ModeQpAndItsSectionParse) {
       "  enforce_joint_limits: false\n"
       "  eps_abs: 1e-9\n"
       "  max_iterations: 50\n"
-      "  warm_start: false\n",
+      "  warm_start: false\n"
+      "  engine: proxqp\n",
       "qp.yaml");
   FilterOptions expected;
   expected.mode = FilterMode::kQp;
@@ -338,6 +340,7 @@ TEST(ConfigFile, ModeQpAndItsSectionParse) {
   expected.qp.solver.eps_abs = 1e-9;
   expected.qp.solver.max_iterations = 50;
   expected.qp.solver.warm_start = false;
+  expected.qp.solver.engine = "proxqp";
   expectSameFilterOptions(config.filter, expected);
   // mode alone switches the solver and keeps every qp default; paper is the default.
   const FilterConfig qp_only = parseFilterConfig("mode: qp\n", "mode.yaml");

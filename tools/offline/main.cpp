@@ -25,7 +25,7 @@
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/backends/make_model.hpp"
-#include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/io/config.hpp"
 #include "dynfilter/io/filtered_motion.hpp"
 #include "dynfilter/io/offline_run.hpp"
@@ -202,7 +202,7 @@ int main(int argc, char** argv) {
     const auto wall0 = std::chrono::steady_clock::now();
     int written = 0;
     io::runOffline(
-        *model, config.filter, motion, run_options, proxqp::factory(),
+        *model, config.filter, motion, run_options, qp_engines::factory(config.filter.qp.solver.engine),
         [&](const io::OfflineTick& tick) {
           const FilterOutput& out = *tick.output;
           if (tick.index == 0 && config.filter.task.enabled && config.filter.task.body.empty() &&

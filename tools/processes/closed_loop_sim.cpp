@@ -8,7 +8,7 @@
 
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/core/model_sampling.hpp"
-#include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/qp_engines/qp_engines.hpp"
 #include "robot_engine.hpp"
 
 namespace dynfilter::processes {
@@ -34,7 +34,7 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
   ReferenceFrame hold(info.nq, info.nv);
   hold.q = info.neutralConfiguration();
   hold.q[2] = standingBaseHeight(*plan, hold.q);
-  realtime::RealtimeFilter rt(*plan, setup.filter, rt_options, hold, proxqp::factory());
+  realtime::RealtimeFilter rt(*plan, setup.filter, rt_options, hold, qp_engines::factory(setup.filter.qp.solver.engine));
   robot->setState(hold.q, Eigen::VectorXd::Zero(info.nv));
 
   realtime::ReplayPlayer player(clips, setup.replay, true);

@@ -17,7 +17,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "dynfilter/backends/make_model.hpp"
-#include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/io/config.hpp"
 #include "dynfilter/lcm/messages.hpp"
@@ -242,7 +242,7 @@ int main(int argc, char** argv) {
     ReferenceFrame hold(info.nq, info.nv);
     hold.q = info.neutralConfiguration();
     if (info.floating_base) hold.q[2] = standingBaseHeight(*model, hold.q);
-    realtime::RealtimeFilter rt(*model, config.filter, rt_options, hold, proxqp::factory());
+    realtime::RealtimeFilter rt(*model, config.filter, rt_options, hold, qp_engines::factory(config.filter.qp.solver.engine));
     if (config.filter.task.enabled && config.filter.task.body.empty())
       std::fprintf(stderr, "dynfilter: task point on \"%s\" (task.body not configured: the model's trunk)\n",
                    info.body_names[static_cast<std::size_t>(rt.filter().taskBody())].c_str());

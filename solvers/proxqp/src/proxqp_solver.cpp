@@ -165,7 +165,7 @@ class ProxQpSolver final : public IQpSolver {
   Eigen::VectorXd l_, u_, x_lower_, x_upper_;
   using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   RowMajorMatrix H_, A_, C_;
-  ActiveSetStep active_set_;
+  qp_active_set::ActiveSetStep active_set_;
   Eigen::VectorXd y_, z_;  // multipliers of the active-set step
 };
 

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <string>
 
 #include <Eigen/Core>
 
@@ -43,12 +44,17 @@ struct QpSolverSettings {
   /// Absolute tolerance on the primal and dual residuals. 1e-7 (N, m/s²) keeps Eq. 12
   /// within 1e-8 of the body weight; 1e-9 took 25 iterations instead of 2 (BENCHMARKS.md).
   double eps_abs = 1e-7;
-  /// The per-solve cap: outer (proximal) iterations, each of at most a few Newton steps
-  /// (ProxQP: 5), so that a solve's work is bounded. A standing tick needs 2; on the CMU
+  /// ProxQP's per-solve cap: outer (proximal) iterations, each of at most a few Newton
+  /// steps (5), so that a solve's work is bounded. A standing tick needs 2; on the CMU
   /// clips 10 leaves every answer acceptable (an iterate stopped by the cap is used when
-  /// it passes the constraint check; FilterOutput status kStatusQpIterationLimit).
+  /// it passes the constraint check; FilterOutput status kStatusQpIterationLimit). DAQP
+  /// has its own cap on working-set changes (daqp::kMaxWorkingSetChanges).
   int max_iterations = 10;
   bool warm_start = true;  ///< start from the previous solution of the same instance
+  /// The engine that tools and bindings make for the filter's QP mode, by name
+  /// (solvers/engines: "daqp", "proxqp"). The filter itself solves with the factory it
+  /// is given; this name only tells the programs which factory to give.
+  std::string engine = "daqp";
 };
 
 enum class QpSolveStatus : int {

@@ -1,12 +1,13 @@
 #pragma once
 /// @file
-/// A primal-dual active-set step ahead of ProxQP: the optimum of a strictly convex QP is
-/// the solution of one linear system once its active set is known, and between two ticks
-/// of the filter the active set mostly stays. Given a guess (the previous solution's
-/// active constraints), solve() solves the equality-constrained QP on that set and checks
-/// every KKT condition; a few guesses are corrected (violated rows in, wrongly signed
-/// multipliers out) before it gives up and the caller runs the iterative solver.
-/// Private to the ProxQP engine; allocates only at construction.
+/// A primal-dual active-set step ahead of an engine's own solve (ProxQP, DAQP): the optimum
+/// of a strictly convex QP is the solution of one linear system once its active set is
+/// known, and between two ticks of the filter the active set mostly stays. Given a guess
+/// (the previous solution's active constraints), solve() solves the equality-constrained
+/// QP on that set and checks every KKT condition; a few guesses are corrected (violated
+/// rows in, wrongly signed multipliers out) before it gives up and the caller runs the
+/// engine.
+/// Private to the engines of solvers/; allocates only at construction.
 
 #include <vector>
 
@@ -14,7 +15,7 @@
 
 #include "dynfilter/core/qp_solver.hpp"
 
-namespace dynfilter::proxqp {
+namespace dynfilter::qp_active_set {
 
 class ActiveSetStep {
  public:
@@ -22,7 +23,7 @@ class ActiveSetStep {
 
   /// Forgets the guess (the next solve() returns false at once).
   void clear() { has_guess_ = false; }
-  /// Takes the guess from multipliers in ProxQP's convention: z (n_in + n: the rows of C,
+  /// Takes the guess from multipliers in ProxQP's convention (DAQP's reordered): z (n_in + n: the rows of C,
   /// then the box) > 0 at an upper bound, < 0 at a lower bound. Sides whose bound is
   /// infinite in @p p are left inactive.
   void guessFromMultipliers(const DenseQp& p, const Eigen::Ref<const Eigen::VectorXd>& z);
@@ -54,4 +55,4 @@ class ActiveSetStep {
   Eigen::VectorXd v_, h_, lambda_, stationarity_;
 };
 
-}  // namespace dynfilter::proxqp
+}  // namespace dynfilter::qp_active_set

@@ -5,7 +5,7 @@
 
 #include <Eigen/Cholesky>
 
-namespace dynfilter::proxqp {
+namespace dynfilter::qp_active_set {
 namespace {
 
 bool finite(double bound) { return std::abs(bound) < kQpInfinity; }
@@ -154,4 +154,4 @@ int ActiveSetStep::solve(const DenseQp& p, double eps, int max_steps, Eigen::Ref
   return 0;
 }
 
-}  // namespace dynfilter::proxqp
+}  // namespace dynfilter::qp_active_set

@@ -1,0 +1,31 @@
+#pragma once
+/// @file
+/// IQpSolver on DAQP (Arnström, Bemporad and Axehill, "A dual active-set solver for
+/// embedded quadratic programming using recursive LDLᵀ updates", IEEE TAC 2022): a
+/// maintained dense dual active-set solver in C, built for real-time MPC, compiled from its
+/// PyPI source distribution (solvers/daqp/CMakeLists.txt). A warm solve first tries the
+/// last answer's active set (one KKT solve, every condition checked; solvers/active_set);
+/// when that fails DAQP runs, hot-started from its last working set and capped at
+/// kMaxWorkingSetChanges, so a solve's work is bounded. Equality rows are always in the
+/// working set: they hold to round-off in DAQP's answers (to eps_abs in the step's).
+/// Memory is allocated at construction and on the first solve (DAQP's setup) only.
+
+#include <memory>
+
+#include "dynfilter/core/qp_solver.hpp"
+
+namespace dynfilter::daqp {
+
+/// Working-set changes per solve before it stops (QpSolveStatus::kMaxIterations).
+/// QpSolverSettings::max_iterations counts ProxQP's outer iterations and is not used.
+constexpr int kMaxWorkingSetChanges = 400;
+
+/// A DAQP instance for problems of dimension (n, n_eq, n_in) with box bounds.
+/// H must be positive definite. Throws std::invalid_argument on invalid dimensions or
+/// settings, std::runtime_error when DAQP cannot be set up.
+std::unique_ptr<IQpSolver> makeSolver(int n, int n_eq, int n_in, const QpSolverSettings& settings);
+
+/// The factory the filter's QP mode takes (FilterMode::kQp).
+QpSolverFactory factory();
+
+}  // namespace dynfilter::daqp

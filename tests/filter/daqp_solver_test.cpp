@@ -1,0 +1,263 @@
+// The DAQP adapter (dynfilter::daqp::makeSolver): small QPs with answers worked out from the
+// KKT conditions, random QPs against ProxQP, and the engine registry (qp_engines).
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+
+#include "dynfilter/core/qp_solver.hpp"
+#include "dynfilter/daqp/daqp_solver.hpp"
+#include "dynfilter/proxqp/proxqp_solver.hpp"
+#include "dynfilter/qp_engines/qp_engines.hpp"
+
+namespace dynfilter {
+namespace {
+
+// min ½‖x − c‖², c = (2, 1, 0), s.t. x0 + x1 + x2 = 1, x0 ≤ 1 (box), x2 ≥ −0.25 (row of C),
+// one row of C unbounded on both sides. Both bounds are active at the optimum
+// x = (1, 0.25, −0.25): λ = x1 − c1 = −0.75 on the plane, then the box's multiplier
+// 2 − 1 − 0.75 = 0.25 ≥ 0 and the row's 0.75 − 0.25 = 0.5 ≥ 0.
+DenseQp projectionProblem() {
+  DenseQp qp(3, 1, 2);
+  qp.H.setIdentity();
+  qp.g = -Eigen::Vector3d(2.0, 1.0, 0.0);
+  qp.A << 1.0, 1.0, 1.0;
+  qp.b << 1.0;
+  qp.C << 0.0, 0.0, 1.0,  //
+      1.0, -1.0, 0.5;
+  qp.l << -0.25, -kQpInfinity;
+  qp.u << kQpInfinity, kQpInfinity;
+  qp.x_lower.setConstant(-kQpInfinity);
+  qp.x_upper << 1.0, kQpInfinity, kQpInfinity;
+  return qp;
+}
+
+QpSolverSettings tightSettings() {
+  QpSolverSettings s;
+  s.eps_abs = 1e-10;
+  s.max_iterations = 1000;
+  return s;
+}
+
+TEST(DaqpAdapter, ProjectionWithActiveBoxAndRowMatchesKktToRoundOff) {
+  auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
+  EXPECT_STREQ(solver->name(), "daqp");
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(3, 99.0);
+  const QpSolveInfo info = solver->solve(projectionProblem(), x);
+  ASSERT_EQ(info.status, QpSolveStatus::kSolved) << toString(info.status);
+  // An active-set answer solves the KKT system of its working set exactly.
+  EXPECT_NEAR(x[0], 1.0, 1e-13);
+  EXPECT_NEAR(x[1], 0.25, 1e-13);
+  EXPECT_NEAR(x[2], -0.25, 1e-13);
+  EXPECT_LE(info.primal_residual, 1e-13);
+}
+
+TEST(DaqpAdapter, HotStartsFollowChangedDataAndResetStartsCold) {
+  auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
+  DenseQp qp = projectionProblem();
+  Eigen::VectorXd x(3);
+  const QpSolveInfo cold = solver->solve(qp, x);
+  ASSERT_EQ(cold.status, QpSolveStatus::kSolved);
+  // Same working set, box at 0.9: x = (0.9, 0.35, −0.25) (λ = −0.65; multipliers 0.45, 0.4).
+  qp.x_upper[0] = 0.9;
+  const QpSolveInfo hot = solver->solve(qp, x);
+  ASSERT_EQ(hot.status, QpSolveStatus::kSolved);
+  EXPECT_LE(hot.iterations, cold.iterations);
+  EXPECT_NEAR(x[0], 0.9, 1e-13);
+  EXPECT_NEAR(x[1], 0.35, 1e-13);
+  EXPECT_NEAR(x[2], -0.25, 1e-13);
+  // Both guesses wrong: c = (2, 1, 1.5) projects onto the plane at (5/6, −1/6, 1/3), inside
+  // both bounds; the hot start must leave the working set.
+  qp.g = -Eigen::Vector3d(2.0, 1.0, 1.5);
+  ASSERT_EQ(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], 5.0 / 6.0, 1e-12);
+  EXPECT_NEAR(x[1], -1.0 / 6.0, 1e-12);
+  EXPECT_NEAR(x[2], 1.0 / 3.0, 1e-12);
+  solver->resetWarmStart();
+  qp = projectionProblem();
+  ASSERT_EQ(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[1], 0.25, 1e-13);
+}
+
+TEST(DaqpAdapter, InfiniteBoundsAreUnbounded) {
+  // Only Σx = 1 binds: the projection (4/3, 1/3, −2/3). A bound taken as the finite 1e20
+  // would still give this answer but scale DAQP's LDP; it must be mapped to DAQP_INF.
+  auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
+  DenseQp qp = projectionProblem();
+  qp.l.setConstant(-kQpInfinity);
+  qp.u.setConstant(kQpInfinity);
+  qp.x_upper.setConstant(kQpInfinity);
+  Eigen::VectorXd x(3);
+  ASSERT_EQ(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], 4.0 / 3.0, 1e-13);
+  EXPECT_NEAR(x[1], 1.0 / 3.0, 1e-13);
+  EXPECT_NEAR(x[2], -2.0 / 3.0, 1e-13);
+}
+
+TEST(DaqpAdapter, InfeasibleProblemIsNotReportedSolved) {
+  // x ≥ 1 (box) and x ≤ 0 (row of C).
+  auto solver = daqp::makeSolver(1, 0, 1, QpSolverSettings{});
+  DenseQp qp(1, 0, 1);
+  qp.H(0, 0) = 1.0;
+  qp.g[0] = 0.0;
+  qp.C(0, 0) = 1.0;
+  qp.l[0] = -kQpInfinity;
+  qp.u[0] = 0.0;
+  qp.x_lower[0] = 1.0;
+  qp.x_upper[0] = kQpInfinity;
+  Eigen::VectorXd x(1);
+  EXPECT_EQ(solver->solve(qp, x).status, QpSolveStatus::kPrimalInfeasible);
+  EXPECT_NE(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  // A feasible problem on the same instance afterwards is solved: x ≤ 2 instead.
+  qp.u[0] = 2.0;
+  ASSERT_EQ(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], 1.0, 1e-13);
+}
+
+TEST(DaqpAdapter, NonFiniteDataIsReportedNotSolved) {
+  auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
+  DenseQp qp = projectionProblem();
+  qp.H(1, 1) = std::numeric_limits<double>::quiet_NaN();
+  Eigen::VectorXd x(3);
+  EXPECT_EQ(solver->solve(qp, x).status, QpSolveStatus::kNotFinite);
+  ASSERT_EQ(solver->solve(projectionProblem(), x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], 1.0, 1e-13);
+}
+
+// The optimality certificate of x: the rows active at x (within tol, signed so that each
+// reads s·row·x ≤ s·bound) with the equalities form a KKT system whose solution must be x,
+// with non-negative multipliers on the inequalities. Returns the most negative multiplier
+// and writes the KKT point's distance from x.
+double kktCertificate(const DenseQp& qp, const Eigen::VectorXd& x, double tol, double& distance) {
+  const int n = qp.n();
+  Eigen::MatrixXd G(qp.nEq() + qp.nIn() + n, n);
+  Eigen::VectorXd h(G.rows());
+  int rows = 0;
+  for (int i = 0; i < qp.nEq(); ++i, ++rows) {
+    G.row(rows) = qp.A.row(i);
+    h[rows] = qp.b[i];
+  }
+  const int first_inequality = rows;
+  const Eigen::VectorXd cx = qp.C * x;
+  for (int i = 0; i < qp.nIn(); ++i) {
+    if (cx[i] > qp.u[i] - tol) G.row(rows) = qp.C.row(i), h[rows++] = qp.u[i];
+    else if (cx[i] < qp.l[i] + tol) G.row(rows) = -qp.C.row(i), h[rows++] = -qp.l[i];
+  }
+  for (int i = 0; i < n; ++i) {
+    if (x[i] > qp.x_upper[i] - tol) G.row(rows) = Eigen::VectorXd::Unit(n, i).transpose(), h[rows++] = qp.x_upper[i];
+    else if (x[i] < qp.x_lower[i] + tol) G.row(rows) = -Eigen::VectorXd::Unit(n, i).transpose(), h[rows++] = -qp.x_lower[i];
+  }
+  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(n + rows, n + rows);
+  K.topLeftCorner(n, n) = qp.H;
+  K.topRightCorner(n, rows) = G.topRows(rows).transpose();
+  K.bottomLeftCorner(rows, n) = G.topRows(rows);
+  Eigen::VectorXd rhs(n + rows);
+  rhs << -qp.g, h.head(rows);
+  const Eigen::VectorXd sol = K.fullPivLu().solve(rhs);
+  distance = (sol.head(n) - x).cwiseAbs().maxCoeff();
+  const int num_inequalities = rows - first_inequality;
+  return num_inequalities > 0 ? sol.tail(num_inequalities).minCoeff() : 0.0;
+}
+
+double objective(const DenseQp& qp, const Eigen::VectorXd& x) { return 0.5 * x.dot(qp.H * x) + qp.g.dot(x); }
+
+// A sequence of random strictly convex QPs drifting like the filter's ticks (n = 30, 6
+// equalities, 40 rows, boxes), solved by one hot-started DAQP instance: every answer passes
+// the KKT certificate (its active set's KKT point, multipliers ≥ 0), its equality rows hold
+// to round-off, and it is never worse than a cold, tight ProxQP's answer nor different from a cold DAQP's.
+TEST(DaqpAdapter, HotStartedAnswersOnADriftingSequenceOfRandomQpsAreCertifiedOptimal) {
+  const int n = 30, n_eq = 6, n_in = 40;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  DenseQp qp(n, n_eq, n_in);
+  Eigen::MatrixXd L(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) L(i, j) = normal(rng);
+  for (int i = 0; i < n_eq; ++i)
+    for (int j = 0; j < n; ++j) qp.A(i, j) = normal(rng);
+  for (int i = 0; i < n_in; ++i)
+    for (int j = 0; j < n; ++j) qp.C(i, j) = normal(rng);
+  for (int i = 0; i < n; ++i) qp.g[i] = 3.0 * normal(rng);
+  for (int i = 0; i < n_eq; ++i) qp.b[i] = 0.5 * normal(rng);
+  qp.x_lower.setConstant(-0.8);
+  qp.x_upper.setConstant(0.8);
+  auto daqp_solver = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
+  int active_total = 0, hot_iterations = 0, cold_iterations = 0, proxqp_solved = 0;
+  for (int k = 0; k < 40; ++k) {
+    L += 0.02 * Eigen::MatrixXd::NullaryExpr(n, n, [&] { return normal(rng); });
+    qp.H = L * L.transpose() / n + 0.1 * Eigen::MatrixXd::Identity(n, n);
+    for (int i = 0; i < n; ++i) qp.g[i] += 0.1 * normal(rng);
+    for (int i = 0; i < n_eq; ++i) qp.b[i] += 0.02 * normal(rng);
+    for (int i = 0; i < n_in; ++i) {
+      qp.l[i] = i % 3 == 0 ? -kQpInfinity : -1.0 - 0.1 * std::abs(normal(rng));
+      qp.u[i] = 1.0 + 0.1 * std::abs(normal(rng));
+    }
+    Eigen::VectorXd x(n), x_proxqp(n);
+    const QpSolveInfo info = daqp_solver->solve(qp, x);
+    ASSERT_EQ(info.status, QpSolveStatus::kSolved) << "tick " << k;
+    hot_iterations += info.iterations;
+    double distance = 0.0;
+    const double min_multiplier = kktCertificate(qp, x, 1e-9, distance);
+    EXPECT_LT(distance, 1e-9) << "tick " << k;
+    EXPECT_GT(min_multiplier, -1e-9) << "tick " << k;
+    EXPECT_LT((qp.A * x - qp.b).cwiseAbs().maxCoeff(), 1e-12) << "tick " << k;
+    const Eigen::VectorXd cx = qp.C * x;
+    for (int i = 0; i < n_in; ++i) {
+      EXPECT_LE(cx[i], qp.u[i] + 1e-9);
+      EXPECT_GE(cx[i], qp.l[i] - 1e-9);
+      if (cx[i] > qp.u[i] - 1e-9 || cx[i] < qp.l[i] + 1e-9) ++active_total;
+    }
+    auto proxqp_solver = proxqp::makeSolver(n, n_eq, n_in, tightSettings());
+    // ProxQP's answer, where it has one (its infeasibility test sometimes fires on these),
+    // is never better.
+    if (proxqp_solver->solve(qp, x_proxqp).status == QpSolveStatus::kSolved) {
+      ++proxqp_solved;
+      EXPECT_LE(objective(qp, x), objective(qp, x_proxqp) + 1e-9) << "tick " << k;
+    }
+    auto cold = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
+    Eigen::VectorXd x_cold(n);
+    cold_iterations += cold->solve(qp, x_cold).iterations;
+    EXPECT_LT((x - x_cold).cwiseAbs().maxCoeff(), 1e-9) << "tick " << k;
+  }
+  RecordProperty("active_rows_total", active_total);
+  RecordProperty("hot_iterations", hot_iterations);
+  RecordProperty("cold_iterations", cold_iterations);
+  EXPECT_GT(proxqp_solved, 20);
+  EXPECT_GT(active_total, 40) << "the rows must bind for the certificate to mean anything";
+  EXPECT_LT(hot_iterations, cold_iterations) << "the hot start saves working-set changes";
+}
+
+TEST(DaqpAdapter, InvalidDimensionsThrow) {
+  EXPECT_THROW(daqp::makeSolver(0, 0, 0, QpSolverSettings{}), std::invalid_argument);
+  EXPECT_THROW(daqp::makeSolver(3, -1, 0, QpSolverSettings{}), std::invalid_argument);
+  QpSolverSettings bad;
+  bad.eps_abs = 0.0;
+  EXPECT_THROW(daqp::makeSolver(3, 1, 0, bad), std::invalid_argument);
+}
+
+TEST(QpEngines, NamesMakeTheirEnginesAndAnUnknownNameListsTheKnownOnes) {
+  EXPECT_EQ(QpSolverSettings{}.engine, "daqp");
+  for (const std::string name : {"daqp", "proxqp"}) {
+    auto solver = qp_engines::factory(name)(3, 1, 2, QpSolverSettings{});
+    EXPECT_EQ(std::string(solver->name()), name);
+    Eigen::VectorXd x(3);
+    ASSERT_EQ(solver->solve(projectionProblem(), x).status, QpSolveStatus::kSolved) << name;
+    EXPECT_NEAR(x[1], 0.25, 1e-6) << name;
+  }
+  try {
+    qp_engines::factory("qpoases");
+    FAIL() << "an unknown engine must throw";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("qpoases"), std::string::npos) << what;
+    EXPECT_NE(what.find("daqp"), std::string::npos) << what;
+    EXPECT_NE(what.find("proxqp"), std::string::npos) << what;
+  }
+}
+
+}  // namespace
+}  // namespace dynfilter
