@@ -229,9 +229,11 @@ int BalanceLayer::rollSoles(VirtualLinkSet& links) const {
   return changed;
 }
 
-const BalanceLayer::Sample& BalanceLayer::at(int i) const {
-  return ring_[static_cast<std::size_t>((head_ + i) % static_cast<int>(ring_.size()))];
+std::size_t BalanceLayer::ringIndex(int i) const {
+  return static_cast<std::size_t>((head_ + i) % static_cast<int>(ring_.size()));
 }
+
+const BalanceLayer::Sample& BalanceLayer::at(int i) const { return ring_[ringIndex(i)]; }
 
 double BalanceLayer::groundHeight(const Eigen::Vector2d& p) const {
   if (environment_ == nullptr || !environment_->has_ground) return 0.0;
@@ -242,6 +244,7 @@ double BalanceLayer::groundHeight(const Eigen::Vector2d& p) const {
 
 void BalanceLayer::makeSample(IDynamicsModel& model, const ReferenceFrame& frame, Sample& out) {
   out.t = frame.time_s;
+  out.excess_key.fill(std::numeric_limits<double>::quiet_NaN());
   model.setState(frame.q, frame.v);
   model.massMatrix(A_);
   const CentroidalState cs = centroidalState(A_, frame.q, frame.v, mass_kg_);
@@ -386,13 +389,25 @@ void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& referenc
     // the pendulum's DCM answers e as ξ answers p, so the offset integrates backwards as
     // δξ ← e + exp(−ω Δt) (δξ − e) from 0 at the window's end. Where the reference's CoP
     // stays in its support the target is its DCM, whatever the model's error.
+    // Each segment's excess depends on its four samples alone: computed once per set of
+    // samples (offline the window holds seconds of them, and the ticks share them).
+    if (env.has_ground != cached_ground_.has_ground || env.ground.n_W != cached_ground_.n_W ||
+        env.ground.offset_m != cached_ground_.offset_m) {
+      for (int i = 0; i < size_; ++i) ring_[ringIndex(i)].excess_key.fill(std::numeric_limits<double>::quiet_NaN());
+      cached_ground_ = {env.has_ground, env.ground.n_W, env.ground.offset_m};
+    }
     Eigen::Vector2d dxi = Eigen::Vector2d::Zero(), excess;
     for (int i = last - 1; i > first; --i) {
       const Sample& a = at(i - 1);
-      const Sample& b = at(i);
-      segmentCop(at(sampleBefore(i - 1, a.t - kAccelHalfWindowS)), a, b,
-                 at(sampleAfter(i, b.t + kAccelHalfWindowS)), nullptr, &excess);
-      dxi = excess + std::exp(-omega_ * (b.t - a.t)) * (dxi - excess);
+      Sample& b = ring_[ringIndex(i)];
+      const Sample& before = at(sampleBefore(i - 1, a.t - kAccelHalfWindowS));
+      const Sample& after = at(sampleAfter(i, b.t + kAccelHalfWindowS));
+      const std::array<double, 3> key{{before.t, a.t, after.t}};
+      if (key != b.excess_key) {
+        segmentCop(before, a, b, after, nullptr, &b.excess);
+        b.excess_key = key;
+      }
+      dxi = b.excess + std::exp(-omega_ * (b.t - a.t)) * (dxi - b.excess);
     }
     const Sample& b = at(first);
     cop_target_ = segmentCop(first > 0 ? at(sampleBefore(first - 1, t - kAccelHalfWindowS)) : now_, now_, b,

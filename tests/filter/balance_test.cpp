@@ -309,6 +309,60 @@ TEST(Balance, TheDcmTargetOfAReferenceInsideItsSupportIsItsOwnDcm) {
   EXPECT_LT(worst, 1e-9);
 }
 
+// The backward pass reuses each segment's CoP excess while its samples stay (offline the
+// window holds seconds of samples that every tick shares). A reference swaying 8 cm at
+// 1.5 Hz needs a CoP outside its soles, so the excesses are not zero; the layer prepared tick
+// after tick must give, bit for bit, the target of a fresh layer prepared once at that
+// tick from the same samples — also after the model's ground changed under the same layer
+// (a 5° slope: the segments' CoPs are measured from the ground).
+TEST(Balance, TheCachedBackwardPassGivesTheTargetOfAFreshLayer) {
+  auto flat = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  ModelOptions sloped_options;
+  sloped_options.environment.ground = GroundPlane::sloped(5.0 * M_PI / 180.0);
+  auto sloped = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), sloped_options);
+  const ModelInfo& info = flat->info();
+  Eigen::VectorXd q0 = info.neutralConfiguration();
+  q0[2] = standingBaseHeight(*flat, q0);
+  const double a = 0.08, w = 3.0 * M_PI;
+  auto frameAt = [&](double t) {
+    ReferenceFrame f(info.nq, info.nv);
+    f.time_s = t;
+    f.q = q0;
+    f.q[0] += a * std::sin(w * t);
+    f.v[0] = a * w * std::cos(w * t);
+    f.vdot[0] = -a * w * w * std::sin(w * t);
+    return f;
+  };
+  BalanceOptions options;
+  options.preview_s = 10.0;
+  options.preview_capacity = 1024;
+  BalanceLayer layer(*flat, options);
+  for (int k = 0; k <= 400; ++k) ASSERT_TRUE(layer.pushPreview(*flat, frameAt(k / 120.0)));
+  double largest_offset = 0.0;
+  int compared = 0;
+  for (int k = 0; k < 300; ++k) {
+    const double t = 0.2 + k * 2e-3;
+    IDynamicsModel& model = t < 0.6 ? *flat : *sloped;
+    layer.prepare(model, frameAt(t), 2e-3);
+    if (k % 25 != 0 && k != 100) continue;  // k = 100: the first tick on the slope
+    BalanceLayer fresh(model, options);
+    for (int j = 0; j <= 400; ++j) {
+      if (frameAt(j / 120.0).time_s <= t - 0.1) continue;
+      ASSERT_TRUE(fresh.pushPreview(*flat, frameAt(j / 120.0)));
+    }
+    fresh.prepare(model, frameAt(t), 2e-3);
+    EXPECT_EQ(layer.state().dcm_desired.x(), fresh.state().dcm_desired.x()) << "t = " << t;
+    EXPECT_EQ(layer.state().dcm_desired.y(), fresh.state().dcm_desired.y()) << "t = " << t;
+    const BalanceState& st = layer.state();
+    const double omega = std::sqrt(kGravity / st.reference.c_W.z());
+    const Eigen::Vector2d xi = st.reference.c_W.head<2>() + st.reference.cdot_W.head<2>() / omega;
+    largest_offset = std::max(largest_offset, (st.dcm_desired - xi).norm());
+    ++compared;
+  }
+  EXPECT_EQ(compared, 12);
+  EXPECT_GT(largest_offset, 0.01) << "the reference's CoP must leave its support for the excesses to matter";
+}
+
 // Flat landing: a sole that touches down on its heel edge holds a face link over its whole
 // sole, anchored flat on the ground about the heel; a steeper sole keeps its edge link.
 // The virtual links the default contact options make from the collisions at @p q (v = 0).

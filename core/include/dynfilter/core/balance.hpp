@@ -25,6 +25,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -154,6 +155,13 @@ class BalanceLayer {
     int num_support = 0;
     std::array<Eigen::Vector2d, kMaxSupport> support;  // convex hull, counter-clockwise
     std::uint64_t stance = 0;  // bodies (< 64) in stance
+    // The CoP excess of the segment ending here (prepare's backward pass), and the times of
+    // the samples it was computed from (before, segment start, after; NaN: not computed).
+    // The excess is a function of those samples alone, so it is reused while they stay.
+    Eigen::Vector2d excess = Eigen::Vector2d::Zero();
+    std::array<double, 3> excess_key{{std::numeric_limits<double>::quiet_NaN(),
+                                      std::numeric_limits<double>::quiet_NaN(),
+                                      std::numeric_limits<double>::quiet_NaN()}};
   };
   struct SoleFootprint {  // the sole's face in its body: frame S (z out of the sole) and extent
     Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();
@@ -170,6 +178,7 @@ class BalanceLayer {
   int swingSoleRows(const IDynamicsModel& model, const Eigen::Ref<const Eigen::VectorXd>& v,
                     std::size_t s, int rows, QpObjectiveTasks& tasks);
   const Sample& at(int i) const;  // 0 = oldest
+  std::size_t ringIndex(int i) const;  // ring_ slot of at(i)
   double groundHeight(const Eigen::Vector2d& p_xy) const;
   // Reference CoP over [a, b] of the wrench it needs (force m (c̈ + g), moment L̇ about c),
   // clamped into a's support; c̈ and L̇ are the changes from `before` to `after`, samples
@@ -193,6 +202,11 @@ class BalanceLayer {
   std::vector<SoleFootprint> footprints_;
   std::vector<Sample> ring_;
   int head_ = 0, size_ = 0;
+  struct CachedGround {  // the ground the samples' cached excesses were computed on
+    bool has_ground = false;
+    Eigen::Vector3d n_W = Eigen::Vector3d::Zero();
+    double offset_m = 0.0;
+  } cached_ground_;
   Sample now_;                  // the reference at this tick
   Eigen::Vector2d dcm_target_ = Eigen::Vector2d::Zero(), cop_target_ = Eigen::Vector2d::Zero();
   Eigen::Vector3d cddot_ref_ = Eigen::Vector3d::Zero();
