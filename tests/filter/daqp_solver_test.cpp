@@ -128,6 +128,24 @@ TEST(DaqpAdapter, NonFiniteDataIsReportedNotSolved) {
   EXPECT_NEAR(x[0], 1.0, 1e-13);
 }
 
+TEST(DaqpAdapter, AnIndefiniteProblemIsRejectedAndTheInstanceStaysUsable) {
+  // H = diag(1, −1, 1) has no minimum: DAQP's setup fails on its first solve (it frees its
+  // workspace then); the instance must report it and set up again for the next problem.
+  auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
+  DenseQp qp = projectionProblem();
+  qp.H(1, 1) = -1.0;
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(3);
+  EXPECT_NE(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  EXPECT_NE(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  ASSERT_EQ(solver->solve(projectionProblem(), x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], 1.0, 1e-13);
+  EXPECT_NEAR(x[1], 0.25, 1e-13);
+  // And once set up, an indefinite update is rejected the same way.
+  EXPECT_NE(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  ASSERT_EQ(solver->solve(projectionProblem(), x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[2], -0.25, 1e-13);
+}
+
 // The optimality certificate of x: the rows active at x (within tol, signed so that each
 // reads s·row·x ≤ s·bound) with the equalities form a KKT system whose solution must be x,
 // with non-negative multipliers on the inequalities. Returns the most negative multiplier

@@ -110,7 +110,7 @@ class DaqpSolver final : public IQpSolver {
       work_ = DAQPWorkspace{};
       work_.settings = &settings_;
       flag = setup_daqp(&problem_, &work_, nullptr);
-      set_up_ = true;
+      set_up_ = flag >= 0;  // a failed setup has freed its workspace: set up again next time
     } else {
       // Hot start: the working set of the last solve stays unless the caller reset it.
       int mask = DAQP_UPDATE_Rinv | DAQP_UPDATE_M | DAQP_UPDATE_v | DAQP_UPDATE_d;
