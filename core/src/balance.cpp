@@ -396,18 +396,32 @@ void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& referenc
       for (int i = 0; i < size_; ++i) ring_[ringIndex(i)].excess_key.fill(std::numeric_limits<double>::quiet_NaN());
       cached_ground_ = {env.has_ground, env.ground.n_W, env.ground.offset_m};
     }
+    // A cached segment whose before-sample is still held and was not clamped to the front,
+    // and whose after-sample was not clamped to the end, keeps them: samples are only
+    // dropped from the front and appended at the end.
+    const double front_t = at(0).t;
     Eigen::Vector2d dxi = Eigen::Vector2d::Zero(), excess;
+    double decay_dt = -1.0, decay = 1.0;
     for (int i = last - 1; i > first; --i) {
       const Sample& a = at(i - 1);
       Sample& b = ring_[ringIndex(i)];
-      const Sample& before = at(sampleBefore(i - 1, a.t - kAccelHalfWindowS));
-      const Sample& after = at(sampleAfter(i, b.t + kAccelHalfWindowS));
-      const std::array<double, 3> key{{before.t, a.t, after.t}};
-      if (key != b.excess_key) {
-        segmentCop(before, a, b, after, nullptr, &b.excess);
-        b.excess_key = key;
+      const std::array<double, 3>& key = b.excess_key;
+      const bool settled = key[1] == a.t && key[0] <= a.t - kAccelHalfWindowS && key[0] >= front_t &&
+                           key[2] >= b.t + kAccelHalfWindowS;
+      if (!settled) {
+        const Sample& before = at(sampleBefore(i - 1, a.t - kAccelHalfWindowS));
+        const Sample& after = at(sampleAfter(i, b.t + kAccelHalfWindowS));
+        const std::array<double, 3> now_key{{before.t, a.t, after.t}};
+        if (now_key != key) {
+          segmentCop(before, a, b, after, nullptr, &b.excess);
+          b.excess_key = now_key;
+        }
       }
-      dxi = b.excess + std::exp(-omega_ * (b.t - a.t)) * (dxi - b.excess);
+      if (b.t - a.t != decay_dt) {
+        decay_dt = b.t - a.t;
+        decay = std::exp(-omega_ * decay_dt);
+      }
+      dxi = b.excess + decay * (dxi - b.excess);
     }
     const Sample& b = at(first);
     cop_target_ = segmentCop(first > 0 ? at(sampleBefore(first - 1, t - kAccelHalfWindowS)) : now_, now_, b,
