@@ -83,6 +83,19 @@ TEST(DaqpAdapter, HotStartsFollowChangedDataAndResetStartsCold) {
   EXPECT_NEAR(x[1], 0.25, 1e-13);
 }
 
+TEST(DaqpAdapter, WithoutWarmStartEverySolveStartsCold) {
+  QpSolverSettings cold;
+  cold.warm_start = false;
+  auto solver = daqp::makeSolver(3, 1, 2, cold);
+  Eigen::VectorXd x(3);
+  const QpSolveInfo first = solver->solve(projectionProblem(), x);
+  const QpSolveInfo second = solver->solve(projectionProblem(), x);
+  ASSERT_EQ(second.status, QpSolveStatus::kSolved);
+  EXPECT_EQ(second.iterations, first.iterations);
+  EXPECT_GT(second.iterations, 1) << "two bounds to add from the equality-only start";
+  EXPECT_NEAR(x[1], 0.25, 1e-13);
+}
+
 TEST(DaqpAdapter, InfiniteBoundsAreUnbounded) {
   // Only Σx = 1 binds: the projection (4/3, 1/3, −2/3). A bound taken as the finite 1e20
   // would still give this answer but scale DAQP's LDP; it must be mapped to DAQP_INF.

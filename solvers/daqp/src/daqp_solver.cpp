@@ -159,7 +159,7 @@ class DaqpSolver final : public IQpSolver {
       info.status = QpSolveStatus::kNotFinite;
       cold_ = true;
     }
-    if (info.status == QpSolveStatus::kSolved) {
+    if (info.status == QpSolveStatus::kSolved && warm_start_) {
       // DAQP's multipliers (box, equalities, rows; > 0 at an upper bound) as the next guess.
       z_.head(n_in_) = lambda_.tail(n_in_);
       z_.tail(n_) = lambda_.head(n_);
