@@ -14,34 +14,13 @@
 #include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/qp_engines/qp_engines.hpp"
 
+#include "filter/qp_test_problems.hpp"
+
 namespace dynfilter {
 namespace {
 
-// min ½‖x − c‖², c = (2, 1, 0), s.t. x0 + x1 + x2 = 1, x0 ≤ 1 (box), x2 ≥ −0.25 (row of C),
-// one row of C unbounded on both sides. Both bounds are active at the optimum
-// x = (1, 0.25, −0.25): λ = x1 − c1 = −0.75 on the plane, then the box's multiplier
-// 2 − 1 − 0.75 = 0.25 ≥ 0 and the row's 0.75 − 0.25 = 0.5 ≥ 0.
-DenseQp projectionProblem() {
-  DenseQp qp(3, 1, 2);
-  qp.H.setIdentity();
-  qp.g = -Eigen::Vector3d(2.0, 1.0, 0.0);
-  qp.A << 1.0, 1.0, 1.0;
-  qp.b << 1.0;
-  qp.C << 0.0, 0.0, 1.0,  //
-      1.0, -1.0, 0.5;
-  qp.l << -0.25, -kQpInfinity;
-  qp.u << kQpInfinity, kQpInfinity;
-  qp.x_lower.setConstant(-kQpInfinity);
-  qp.x_upper << 1.0, kQpInfinity, kQpInfinity;
-  return qp;
-}
-
-QpSolverSettings tightSettings() {
-  QpSolverSettings s;
-  s.eps_abs = 1e-10;
-  s.max_iterations = 1000;
-  return s;
-}
+using test::projectionProblem;
+using test::tightSettings;
 
 TEST(DaqpAdapter, ProjectionWithActiveBoxAndRowMatchesKktToRoundOff) {
   auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
@@ -114,14 +93,7 @@ TEST(DaqpAdapter, InfiniteBoundsAreUnbounded) {
 TEST(DaqpAdapter, InfeasibleProblemIsNotReportedSolved) {
   // x ≥ 1 (box) and x ≤ 0 (row of C).
   auto solver = daqp::makeSolver(1, 0, 1, QpSolverSettings{});
-  DenseQp qp(1, 0, 1);
-  qp.H(0, 0) = 1.0;
-  qp.g[0] = 0.0;
-  qp.C(0, 0) = 1.0;
-  qp.l[0] = -kQpInfinity;
-  qp.u[0] = 0.0;
-  qp.x_lower[0] = 1.0;
-  qp.x_upper[0] = kQpInfinity;
+  DenseQp qp = test::boxAgainstRowProblem();
   Eigen::VectorXd x(1);
   EXPECT_EQ(solver->solve(qp, x).status, QpSolveStatus::kPrimalInfeasible);
   EXPECT_NE(solver->solve(qp, x).status, QpSolveStatus::kSolved);
