@@ -55,6 +55,8 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--sender-gap-first-s", setup.gap_first_s, "first gap this long after the replay starts")
       ->check(CLI::NonNegativeNumber);
+  app.add_flag("--gap-stalls-robot", setup.gap_stalls_robot,
+               "the robot stalls with the sender (its CPU frozen): no step, no state during a gap");
   app.add_option("--log", log_path, "one line a tick (closed_loop_sim.hpp)");
   CLI11_PARSE(app, argc, argv);
 

@@ -59,13 +59,17 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
       rt.addReference(frame, now, ++sequence);
       ++r.frames_sent;
     }
-    rt.addMeasuredState(robot->q(), robot->v(), now, now);
+    const double since_gap = now - setup.replay_start_s - setup.gap_first_s;
+    const bool robot_stalled = setup.gap_stalls_robot && setup.gap_every_s > 0.0 && since_gap >= 0.0 &&
+                               std::fmod(since_gap, setup.gap_every_s) < setup.gap_s;
+    if (!robot_stalled) rt.addMeasuredState(robot->q(), robot->v(), now, now);
     const FilterOutput& out = rt.tick(now);
     r.status_union |= rt.status();
     if (out.status & kStatusReseeded)
       ++r.reseed_ticks_by_reason[static_cast<std::size_t>(std::clamp(static_cast<int>(out.reseed_reason), 0, 6))];
     tau = rt.command();
-    for (int s = 0; s < engine.substeps; ++s) robot->simulateStep(tau, dt / engine.substeps);
+    if (!robot_stalled)
+      for (int s = 0; s < engine.substeps; ++s) robot->simulateStep(tau, dt / engine.substeps);
     ++r.ticks;
     const double z = robot->q()[2];
     const Eigen::Vector4d quat = robot->q().segment<4>(3);

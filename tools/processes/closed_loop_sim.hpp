@@ -33,6 +33,9 @@ struct ClosedLoopSetup {
   /// The sender is descheduled for gap_s every gap_every_s from gap_first_s after the
   /// replay starts (0: never).
   double gap_every_s = 0.0, gap_s = 0.0, gap_first_s = 0.0;
+  /// The robot's process stalls with the sender (its CPU frozen, as a virtual CPU can be):
+  /// during a gap the robot neither steps nor sends its state; the filter ticks on.
+  bool gap_stalls_robot = false;
   /// Base height (m) below which the robot counts as fallen.
   double fallen_below_m = 0.5;
 };

@@ -23,6 +23,7 @@
 #include "dynfilter/lcm/messages.hpp"
 #include "dynfilter/realtime/realtime_filter.hpp"
 #include "model_cli.hpp"
+#include "histogram.hpp"
 #include "process_support.hpp"
 
 namespace {
@@ -150,6 +151,7 @@ struct Receiver {
   void onState(const lcm::ReceiveBuffer* rbuf, const std::string&) {
     const msg::MessageCheck check = states.read(rbuf->data, rbuf->data_size, state_in);
     if (check.ok()) {
+      receive_us.add(static_cast<double>(processes::nowMicros() - state_in.utime));
       inbox.pushState(state_in);
     } else {
       inbox.rejectState(check.reason);
@@ -161,6 +163,7 @@ struct Receiver {
   msg::ReferenceInput reference_in;
   msg::RobotStateInput state_in;
   Inbox& inbox;
+  tools::Histogram receive_us{5.0, 4000};  // a state's utime -> its handling here (µs)
 };
 
 }  // namespace
@@ -277,8 +280,10 @@ int main(int argc, char** argv) {
     // The reason of the latest rejection, whoever rejected it (reader or stream policy).
     const char* detail = nullptr;
     long seen_rejected = 0, seen_states_rejected = 0;
-    std::int64_t state_utime = 0;
+    std::int64_t state_utime = 0, answered_state_utime = 0;
     processes::Ticker ticker(rate_hz);
+    // Where a state's answer spends its time (µs): until the tick starts, in the tick, all.
+    tools::Histogram wake_us(5.0, 4000), tick_us(5.0, 4000), answer_us(5.0, 4000);
     const double start = processes::nowSeconds();
     const bool state_triggered = rt_options.use_measured_state;
     while (!processes::g_stop && (duration_s <= 0.0 || processes::nowSeconds() - start < duration_s)) {
@@ -306,8 +311,15 @@ int main(int argc, char** argv) {
             else
               detail = realtime::describe(rt.stateStream().lastRejection());
           });
+      const std::int64_t tick_start_us = processes::nowMicros();
       const FilterOutput& out = rt.tick(now);
       stamps.utime = processes::nowMicros();
+      tick_us.add(static_cast<double>(stamps.utime - tick_start_us));
+      if (state_triggered && state_utime > 0 && state_utime != answered_state_utime) {
+        wake_us.add(static_cast<double>(tick_start_us - state_utime));
+        answer_us.add(static_cast<double>(stamps.utime - state_utime));
+        answered_state_utime = state_utime;
+      }
       stamps.robot_state_utime = rt_options.use_measured_state ? state_utime : 0;
       msg::fillTorqueCommand(info, out, stamps, rt.status(), &rt.command(), command);
       lcm.publish(command_channel, buffer.data(), msg::encodeMessage(command, buffer));
@@ -349,6 +361,17 @@ int main(int argc, char** argv) {
                  static_cast<long long>(report.frames_rejected), dropped,
                  static_cast<long long>(report.reference_streams),
                  static_cast<long long>(report.state_streams));
+    std::fprintf(stderr, "dynfilter: tick p50 %.0f, p99 %.0f, p99.9 %.0f, max %.0f us\n",
+                 tick_us.percentile(0.5), tick_us.percentile(0.99), tick_us.percentile(0.999), tick_us.max());
+    if (answer_us.count() > 0)
+      std::fprintf(stderr,
+                   "dynfilter: robot state (its utime) -> received p50 %.0f, p99 %.0f, max %.0f us; -> "
+                   "tick start p50 %.0f, p99 %.0f, max %.0f us; -> command p50 %.0f, p99 %.0f, max "
+                   "%.0f us (%ld states answered)\n",
+                   receiver.receive_us.percentile(0.5), receiver.receive_us.percentile(0.99),
+                   receiver.receive_us.max(), wake_us.percentile(0.5), wake_us.percentile(0.99),
+                   wake_us.max(), answer_us.percentile(0.5), answer_us.percentile(0.99), answer_us.max(),
+                   answer_us.count());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dynfilter: error: %s\n", e.what());

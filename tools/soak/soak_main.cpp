@@ -39,6 +39,7 @@
 
 #include "model_cli.hpp"
 #include "child_process.hpp"
+#include "histogram.hpp"
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/core/filter_output.hpp"
 #include "dynfilter/filter_status_t.hpp"
@@ -72,35 +73,6 @@ bool readMemory(pid_t pid, MemoryKb& out) {
 struct MemorySample {
   double t_s;  // since the start of the soak
   MemoryKb kb;
-};
-
-// Fixed-bin histogram (µs), so that an hour-long run does not grow the listener itself.
-class Histogram {
- public:
-  Histogram(double bin_us, int bins) : bin_us_(bin_us), counts_(static_cast<std::size_t>(bins), 0) {}
-  void add(double us) {
-    if (!std::isfinite(us)) return;
-    const auto k = std::min(counts_.size() - 1, static_cast<std::size_t>(std::max(0.0, us / bin_us_)));
-    ++counts_[k];
-    ++n_;
-    max_ = std::max(max_, us);
-  }
-  double percentile(double p) const {
-    if (n_ == 0) return 0.0;
-    const auto target = static_cast<long>(std::ceil(p * static_cast<double>(n_)));
-    long seen = 0;
-    for (std::size_t k = 0; k < counts_.size(); ++k)
-      if ((seen += counts_[k]) >= target) return (static_cast<double>(k) + 1.0) * bin_us_;  // bin's upper edge
-    return max_;
-  }
-  double max() const { return max_; }
-  long count() const { return n_; }
-
- private:
-  double bin_us_;
-  std::vector<long> counts_;
-  long n_ = 0;
-  double max_ = 0.0;
 };
 
 // A burst of missed ticks seen in the status stream.
@@ -235,7 +207,7 @@ struct Listener {
   std::array<long, 16> bits{}, window_bits{};
   bool in_window = false;  // set by the main thread while the measured window runs
   std::map<std::string, long> reasons;
-  Histogram tick_us, solve_us;
+  tools::Histogram tick_us, solve_us;
   std::vector<MissEvent> misses;
 };
 
