@@ -145,12 +145,72 @@ TEST(UrdfLoader, ZeroMassOnAFixedJointIsAccepted) {
   EXPECT_NO_THROW(validateForDynamics(robot, true));
 }
 
-TEST(UrdfLoader, NonPhysicalInertiaIsRejected) {
+// A single link's inertia that no body can have (the triangle inequality broken) changes
+// nothing the dynamics need as long as the rigid body is positive definite: accepted, and
+// said (romeo_small's shoulder, Allegro's fingers ship such values).
+TEST(UrdfLoader, ALinkInertiaBreakingTheTriangleInequalityIsAcceptedWithAWarning) {
   std::string xml = arm();
   const std::string good = R"(<mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01")";
   xml.replace(xml.find(good), good.size(),
               R"(<mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.05")");
-  expectModelError(xml, 12, "link \"upper\"", "triangle inequality", true);
+  const RobotDescription robot = loadUrdfString(xml, "arm.urdf");
+  EXPECT_NO_THROW(validateForDynamics(robot, true));
+  ASSERT_EQ(robot.warnings.size(), 1u);
+  EXPECT_NE(robot.warnings[0].find("arm.urdf:12: link \"upper\": inertia violates the triangle inequality"),
+            std::string::npos) << robot.warnings[0];
+}
+
+TEST(UrdfLoader, ARigidBodyWhoseInertiaIsNotPositiveSemiDefiniteIsRejected) {
+  std::string xml = arm();
+  const std::string good = R"(<mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01")";
+  xml.replace(xml.find(good), good.size(),
+              R"(<mass value="1"/><inertia ixx="-0.01" iyy="0.01" izz="0.01")");
+  expectModelError(xml, 12, "link \"upper\"", "is not positive semi-definite", true);
+}
+
+// Quadruped and humanoid descriptions (Go1, B1, ANYmal, HyQ) start with a 1 µg root whose
+// inertia is singular (1e-6 in every entry, products included) welded to the trunk: the
+// body that moves is the sum, which is fine. Rejected per link before; measured on the
+// example-robot-data descriptions.
+TEST(UrdfLoader, ASingularDummyRootWeldedToTheTrunkIsAccepted) {
+  const std::string dummy = R"(<robot name="arm">
+  <link name="root">
+    <inertial><mass value="1e-6"/><inertia ixx="1e-6" ixy="1e-6" ixz="1e-6" iyy="1e-6" iyz="1e-6" izz="1e-6"/></inertial>
+  </link>
+  <joint name="root_to_base" type="fixed"><parent link="root"/><child link="base"/></joint>
+)";
+  std::string xml = arm();
+  xml.replace(xml.find("<robot name=\"arm\">\n"), std::string("<robot name=\"arm\">\n").size(), dummy);
+  const RobotDescription robot = loadUrdfString(xml, "arm.urdf");
+  EXPECT_NO_THROW(validateForDynamics(robot, true));
+  ASSERT_EQ(robot.warnings.size(), 1u) << "the dummy's own inertia is listed";
+  EXPECT_NE(robot.warnings[0].find("link \"root\""), std::string::npos) << robot.warnings[0];
+  // A trunk that does not make the sum positive semi-definite is still rejected, naming
+  // the body by its first link.
+  RobotDescription bad = robot;
+  InertialDesc& trunk = bad.links[static_cast<std::size_t>(bad.findLink("base"))].inertial;
+  trunk = bad.links[static_cast<std::size_t>(bad.findLink("root"))].inertial;
+  trunk.I_Com_L(0, 0) = -1e-6;
+  try {
+    validateForDynamics(bad, true);
+    FAIL() << "expected a ModelError";
+  } catch (const ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("link \"root\": the rigid body's inertia (with the 1 link(s) welded to it)"),
+              std::string::npos) << e.what();
+  }
+}
+
+// iCub's point masses: zero inertia with a product of 1e-20 from the exporter's rounding.
+TEST(UrdfLoader, APointMassWithRoundingInItsInertiaIsAccepted) {
+  std::string xml = arm();
+  const std::string good = R"(<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/>)";
+  const std::size_t upper = xml.find(good, xml.find("name=\"upper\""));
+  xml.replace(upper, good.size(), R"(<inertia ixx="0" iyy="0" izz="0" ixy="0" ixz="1.35525e-20" iyz="0"/>)");
+  const std::string com = R"(<inertial><mass value="1"/>)";
+  xml.replace(xml.find(com, xml.find("name=\"upper\"")), com.size(),
+              R"(<inertial><origin xyz="0.3 0 0"/><mass value="1"/>)");
+  const RobotDescription robot = loadUrdfString(xml, "arm.urdf");
+  EXPECT_NO_THROW(validateForDynamics(robot, true));
 }
 
 TEST(UrdfLoader, ElementsThatDoNotChangeTheDynamicsAreIgnoredAndListed) {

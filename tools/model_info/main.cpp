@@ -41,15 +41,18 @@ int main(int argc, char** argv) {
   double kp = 2000.0, kd = 40.0;
   bool list_joints = false;
   std::string backend = "dart";
-  app.add_option("urdf", urdf_path, "URDF file (default: the human figure)");
+  auto* positional = app.add_option("urdf", urdf_path, "URDF file (default: the human figure)");
+  app.add_option("-m,--model", urdf_path, "URDF file, as every tool takes it (same as the positional)")
+      ->excludes(positional);
   app.add_flag("--fixed-base", fixed_base, "weld the root link to the world");
   app.add_option("--backend", backend, "dynamics backend: dart or ode")
       ->check(CLI::IsMember(dynfilter::availableBackends()));
   app.add_flag("--joints", list_joints, "print every joint with its limits");
   app.add_option("--seconds", seconds, "simulated standing time (s)")->check(CLI::NonNegativeNumber);
   app.add_option("--dt", dt, "simulation step (s)")->check(CLI::PositiveNumber);
-  app.add_option("--kp", kp, "posture stiffness (N m / rad)");
-  app.add_option("--kd", kd, "posture damping (N m s / rad)");
+  app.add_option("--kp", kp, "posture stiffness (N m / rad), capped per joint where a step of "
+                 "--dt would make it unstable (a light joint)");
+  app.add_option("--kd", kd, "posture damping (N m s / rad), capped the same way");
   dynfilter::tools::ModelCli model_cli;
   dynfilter::tools::addModelOptions(app, model_cli);
   CLI11_PARSE(app, argc, argv);
@@ -109,6 +112,16 @@ int main(int argc, char** argv) {
     // engine's own simulator integrates the whole body with ground contact.
     const Eigen::VectorXd q_ref = q.tail(info.nj);
     Eigen::VectorXd tau(info.nj);
+    // One PD for every joint, but an explicit PD step is stable only while kp dt² and
+    // kd dt stay small against the joint's inertia A_jj (neutral pose): a 10 g finger
+    // diverges under gains that hold a thigh. Those joints get the stable cap.
+    const int v0 = info.floating_base ? 6 : 0;
+    Eigen::VectorXd kp_j(info.nj), kd_j(info.nj);
+    for (int j = 0; j < info.nj; ++j) {
+      const double inertia = A(v0 + j, v0 + j);
+      kp_j[j] = std::min(kp, 0.02 * inertia / (dt * dt));
+      kd_j[j] = std::min(kd, 0.2 * inertia / dt);
+    }
     double peak_tau_ratio = 0.0;
     int peak_joint = 0;
     const int steps = static_cast<int>(std::lround(seconds / dt));
@@ -116,7 +129,7 @@ int main(int argc, char** argv) {
       const auto qj = model->q().tail(info.nj);
       const auto vj = model->v().tail(info.nj);
       for (int j = 0; j < info.nj; ++j) {
-        const double raw = kp * (q_ref[j] - qj[j]) - kd * vj[j];
+        const double raw = kp_j[j] * (q_ref[j] - qj[j]) - kd_j[j] * vj[j];
         tau[j] = std::clamp(raw, -info.tau_max[j], info.tau_max[j]);
         if (std::abs(tau[j]) / info.tau_max[j] > peak_tau_ratio) {
           peak_tau_ratio = std::abs(tau[j]) / info.tau_max[j];
@@ -127,12 +140,15 @@ int main(int argc, char** argv) {
     }
     model->detectContacts(contacts);
     const Eigen::Vector3d base = model->q().head<3>();
-    std::printf("\nafter %.2f s standing under joint PD (kp %.0f, kd %.0f) in the engine:\n",
-                seconds, kp, kd);
+    int capped = 0;
+    for (int j = 0; j < info.nj; ++j) capped += kp_j[j] < kp || kd_j[j] < kd ? 1 : 0;
+    std::printf("\nafter %.2f s standing under joint PD (kp %.0f, kd %.0f; %d light joint(s) "
+                "capped for a stable step) in the engine:\n", seconds, kp, kd, capped);
     std::printf("  base at (%+.4f, %+.4f, %.4f) m (drop %.1f mm), %zu contact points\n", base.x(),
                 base.y(), base.z(), (z0 - base.z()) * 1e3, contacts.size());
-    std::printf("  largest torque used: %.0f %% of its limit (%s)\n", 100.0 * peak_tau_ratio,
-                info.joint_names[peak_joint].c_str());
+    if (info.nj > 0)
+      std::printf("  largest torque used: %.0f %% of its limit (%s)\n", 100.0 * peak_tau_ratio,
+                  info.joint_names[static_cast<std::size_t>(peak_joint)].c_str());
     const bool standing = base.z() > z0 - 0.05;
     std::printf("  %s\n", standing ? "still standing" : "fell");
     return standing ? 0 : 3;

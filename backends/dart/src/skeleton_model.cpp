@@ -70,9 +70,6 @@ struct BulletWorldAccess : dart::collision::BulletCollisionGroup {
   }
 };
 
-// Above this speed (m/s or rad/s in any coordinate) a state is treated as diverged.
-constexpr double kMaxSimulatedSpeed = 1e3;
-
 class DartSkeletonModel final : public SkeletonModel {
  public:
   explicit DartSkeletonModel(SkeletonModelSetup setup)
@@ -379,6 +376,7 @@ class DartSkeletonModel final : public SkeletonModel {
     if (!tau_J.allFinite() || !(v_.cwiseAbs().maxCoeff() < kMaxSimulatedSpeed))
       throw std::runtime_error("DART simulation refused: non-finite torque or runaway velocity");
     setSkeletonForces(tau_J);
+    if (s_.has_mimic) separateExactMimicFollowers();
     s_.world->step();
     // A diverged step would reach DART's live assertions on the next call: keep the last
     // finite state and say so.
@@ -417,6 +415,22 @@ class DartSkeletonModel final : public SkeletonModel {
     s_.skeleton->setPositions(dart_q_);
     s_.skeleton->setVelocities(dart_v_);
     setSkeletonAccelerations();
+  }
+
+  // DART 6.12's mimic motor constraint counts itself active but has no rows when its
+  // follower moves exactly as its leader commands (a velocity error of 0.0, as after every
+  // setState), and World::step then aborts on an assertion (BoxedLcpConstraintSolver,
+  // getDimension() > 0; seen on Talos and Tiago Pro). A follower 1e-12 rad/s (or m/s) off
+  // is not exact, and moves nothing measurable.
+  void separateExactMimicFollowers() const {
+    for (std::size_t j = 0; j < s_.skeleton->getNumJoints(); ++j) {
+      dart::dynamics::Joint* joint = s_.skeleton->getJoint(j);
+      const dart::dynamics::Joint* leader = joint->getMimicJoint();
+      if (joint->getActuatorType() != dart::dynamics::Joint::MIMIC || leader == nullptr) continue;
+      for (std::size_t i = 0; i < joint->getNumDofs(); ++i)
+        if (joint->getVelocity(i) == joint->getMimicMultiplier() * leader->getVelocity(i))
+          joint->setVelocity(i, joint->getVelocity(i) + 1e-12);
+    }
   }
 
   // Per DoF: Skeleton::setAccelerations allocates (DART 6.12).

@@ -235,7 +235,7 @@ class OdeModel final : public OdeBodyModel {
       if (body == nullptr || !(nodes[k].mass_kg > 0.0)) continue;  // world or massless
       double m = 0.0;
       Eigen::Matrix3d I_W;
-      massProperties(body, m, I_W);
+      massProperties(nodes[k], m, I_W);
       const int d = compactJacobian(static_cast<int>(k), toEigen(dBodyGetPosition(body)));
       auto J = J_compact_.leftCols(d);
       auto MJ = MJ_compact_.leftCols(d);
@@ -264,7 +264,7 @@ class OdeModel final : public OdeBodyModel {
       if (body == nullptr || !(nodes[k].mass_kg > 0.0)) continue;  // world or massless
       double m = 0.0;
       Eigen::Matrix3d I_W;
-      massProperties(body, m, I_W);
+      massProperties(nodes[k], m, I_W);
       const Eigen::Vector3d c = toEigen(dBodyGetPosition(body));
       const Eigen::Vector3d w = toEigen(dBodyGetAngularVel(body));
       const Vector6d a = drift(static_cast<int>(k), c);
@@ -301,6 +301,9 @@ class OdeModel final : public OdeBodyModel {
     if (!(dt_s > 0.0) || !std::isfinite(dt_s))
       throw std::invalid_argument("simulateStep: dt must be positive and finite");
     requireTorques(tau_J);
+    // ODE asserts (aborts) on a non-finite rotation inside a step; refuse a diverged start.
+    if (!(v_.cwiseAbs().maxCoeff() < kMaxSimulatedSpeed))
+      throw std::runtime_error("ODE simulation refused: runaway velocity (state kept)");
     // Continue from ODE's own state after the previous step (its bodies satisfy the joint
     // constraints only up to the stepper's drift); after setState the bodies are (q, v).
     if (simulation_state_saved_) restoreSimulationState();
@@ -458,11 +461,13 @@ class OdeModel final : public OdeBodyModel {
     return X;
   }
 
-  static void massProperties(dBodyID body, double& m, Eigen::Matrix3d& I_W) {
+  static void massProperties(const OdeNode& node, double& m, Eigen::Matrix3d& I_W) {
+    const dBodyID body = node.body;
     dMass mass;
     dBodyGetMass(body, &mass);
     m = mass.mass;
-    const Eigen::Matrix3d I_B = rotationFromOde(mass.I);  // same 3 × 4 layout
+    Eigen::Matrix3d I_B = rotationFromOde(mass.I);  // same 3 × 4 layout
+    I_B.diagonal().array() -= node.inertia_lift;
     const Eigen::Matrix3d R = rotationFromOde(dBodyGetRotation(body));
     I_W.noalias() = R * I_B * R.transpose();
   }

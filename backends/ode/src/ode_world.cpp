@@ -5,12 +5,18 @@
 #include <stdexcept>
 #include <string>
 
+#include <Eigen/Eigenvalues>
+
 #include "dynfilter/core/errors.hpp"
 
 namespace dynfilter::ode_backend {
 namespace {
 
 /// Lumped mass properties of the links welded into one node, in the node frame N.
+/// Smallest principal moment (kg m²) an ODE body is given in ODE's own stepper (dMass
+/// must be positive definite); the analytic queries take the lift off (OdeNode).
+constexpr double kTokenInertia = 1e-9;
+
 struct LumpedMass {
   double mass_kg = 0.0;
   Eigen::Vector3d p_NCom = Eigen::Vector3d::Zero();
@@ -173,10 +179,14 @@ void OdeWorld::createBodiesAndJoints(bool enforce_joint_limits) {
     dMassSetZero(&mass);
     // ODE needs mass on every body: a massless node gets a token 1 g with a 1e-6 kg m²
     // inertia in ODE's own stepper only (the analytic queries skip massless nodes).
+    // A body whose inertia is singular there (a point mass: validateForDynamics accepts
+    // positive semi-definite inertias) has its principal moments lifted to kTokenInertia.
     const bool massless = !(node.mass_kg > 0.0);
     const double m = massless ? 1e-3 : node.mass_kg;
-    const Eigen::Matrix3d I = massless ? Eigen::Matrix3d(1e-6 * Eigen::Matrix3d::Identity())
-                                       : node.I_Com_N;
+    Eigen::Matrix3d I = massless ? Eigen::Matrix3d(1e-6 * Eigen::Matrix3d::Identity()) : node.I_Com_N;
+    const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I).eigenvalues()[0];
+    node.inertia_lift = massless ? 0.0 : std::max(0.0, kTokenInertia - smallest);
+    I.diagonal().array() += node.inertia_lift;
     dMassSetParameters(&mass, m, 0.0, 0.0, 0.0, I(0, 0), I(1, 1), I(2, 2), I(0, 1),
                        I(0, 2), I(1, 2));
     dBodySetMass(node.body, &mass);

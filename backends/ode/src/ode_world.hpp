@@ -60,6 +60,9 @@ struct OdeNode {
   /// (ODE needs one); the analytic queries skip it and use the URDF's zero.
   double mass_kg = 0.0;
   Eigen::Matrix3d I_Com_N = Eigen::Matrix3d::Zero();       ///< about the CoM, N axes
+  /// Added to every principal moment of the body's dMass (ODE's stepper needs a positive
+  /// definite inertia; a point mass has none); the analytic queries take it off (kg m²).
+  double inertia_lift = 0.0;
 };
 
 /// Where a URDF link lives: a frame on a node.

@@ -1,5 +1,6 @@
 #include "dynfilter/urdf/robot_description.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Eigenvalues>
@@ -91,24 +92,6 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
       throw ModelError(robot.source, link.line, label, "inertial values are not finite");
     if (in.mass_kg < 0.0)
       throw ModelError(robot.source, link.line, label, "negative mass");
-    if (!(in.mass_kg > 0.0)) continue;  // massless: its inertia is not used
-    // A link with mass on a moving joint (or a floating root) needs a positive-definite
-    // rotational inertia (ODE's bodies assume one). Links welded by fixed joints (sensor
-    // and tool frames) are lumped into their carrier and may be point masses.
-    const int pj = link.parent_joint;
-    const bool carrier = pj < 0 ? floating_base : robot.joints[static_cast<std::size_t>(pj)].moving();
-    if (!carrier) continue;
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(in.I_Com_L);
-    const Eigen::Vector3d m = eig.eigenvalues();  // ascending
-    if (!(m[0] > 0.0))
-      throw ModelError(robot.source, link.line, label,
-                       "inertia is not positive definite (smallest principal moment " +
-                           std::to_string(m[0]) + " kg m²)");
-    if (m[0] + m[1] < m[2] * (1.0 - 1e-9))
-      throw ModelError(robot.source, link.line, label,
-                       "inertia violates the triangle inequality (principal moments " +
-                           std::to_string(m[0]) + ", " + std::to_string(m[1]) + ", " +
-                           std::to_string(m[2]) + " kg m²)");
   }
 
   // Every joint's motion must move mass, or A has a zero row. Evaluated at q = 0 in the
@@ -121,6 +104,44 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
     if (pj < 0) continue;
     const JointDesc& j = robot.joints[static_cast<std::size_t>(pj)];
     X_RL[static_cast<std::size_t>(l)] = X_RL[static_cast<std::size_t>(j.parent_link)] * j.X_PJ;
+  }
+  // Links welded by fixed joints move as one rigid body, and both backends lump them: the
+  // body's inertia has to be physical, not each link's. Robots ship dummy links (a 1e-6 kg
+  // root with a singular inertia welded to the trunk, point-mass sensor frames) that only
+  // the body's sum makes sense of. A body on a moving joint (or a floating root) needs a
+  // positive semi-definite rotational inertia about its centre of mass; rounding in the
+  // URDF's digits (a product of inertia of 1e-20 on a point mass) is tolerated.
+  std::vector<int> body_of(robot.links.size(), -1);
+  std::vector<Composite> body(robot.links.size());
+  std::vector<int> welded(robot.links.size(), 0);
+  for (const int l : order) {
+    const auto li = static_cast<std::size_t>(l);
+    const int pj = robot.links[li].parent_joint;
+    const bool carrier = pj < 0 || robot.joints[static_cast<std::size_t>(pj)].moving();
+    const int b = carrier ? l : body_of[static_cast<std::size_t>(robot.joints[static_cast<std::size_t>(pj)].parent_link)];
+    body_of[li] = b;
+    body[static_cast<std::size_t>(b)].add(robot.links[li].inertial, X_RL[li]);
+    if (b != l) ++welded[static_cast<std::size_t>(b)];
+  }
+  for (const int l : order) {
+    const auto li = static_cast<std::size_t>(l);
+    if (body_of[li] != l) continue;
+    const Composite& c = body[li];
+    const bool moves = robot.links[li].parent_joint >= 0 || floating_base;
+    if (!moves || !(c.mass_kg > 0.0)) continue;  // massless: the joint check below decides
+    const Eigen::Vector3d com = c.first_moment / c.mass_kg;
+    const Eigen::Matrix3d I_com =
+        c.I_origin_R - c.mass_kg * (com.squaredNorm() * Eigen::Matrix3d::Identity() - com * com.transpose());
+    const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I_com).eigenvalues();
+    if (m[0] >= -std::max(1e-9 * std::abs(m[2]), kMinMovedInertia)) continue;
+    const LinkDesc& link = robot.links[li];
+    const std::string with =
+        welded[li] > 0 ? " (with the " + std::to_string(welded[li]) + " link(s) welded to it)" : std::string();
+    throw ModelError(robot.source, link.line, "link \"" + link.name + "\"",
+                     "the rigid body's inertia" + with +
+                         " is not positive semi-definite (principal moments " + std::to_string(m[0]) +
+                         ", " + std::to_string(m[1]) + ", " + std::to_string(m[2]) +
+                         " kg m² about its centre of mass)");
   }
   // Subtree composites, children before parents.
   std::vector<Composite> subtree(robot.links.size());

@@ -17,6 +17,8 @@
 #include <set>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
+
 #include "dynfilter/core/errors.hpp"
 #include "mesh_hull.hpp"
 
@@ -252,6 +254,18 @@ RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentI
       Eigen::Matrix3d I_I;
       I_I << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
       desc.inertial.I_Com_L = X_LI.linear() * I_I * X_LI.linear().transpose();
+      // Physically impossible on its own, but the dynamics need only each rigid body's sum
+      // (validateForDynamics): say so, and go on.
+      const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I_I).eigenvalues();
+      const double tolerance = 1e-9 * std::abs(m[2]) + 1e-15;
+      if (in.mass > 0.0 && I_I.allFinite() && (m[0] < -tolerance || m[0] + m[1] < m[2] - tolerance))
+        robot.warnings.push_back(source + ":" + std::to_string(desc.line) + ": link " +
+                                 quoted(desc.name.c_str()) + ": inertia " +
+                                 (m[0] < -tolerance ? "not positive semi-definite"
+                                                    : "violates the triangle inequality") +
+                                 " (principal moments " + std::to_string(m[0]) + ", " +
+                                 std::to_string(m[1]) + ", " + std::to_string(m[2]) +
+                                 " kg m²); accepted: the rigid body it belongs to is checked");
     }
     const std::vector<int>& collision_lines = index.collision_lines[i];
     for (std::size_t k = 0; k < link->collision_array.size(); ++k) {

@@ -25,6 +25,10 @@
 
 namespace dynfilter {
 
+/// Above this speed (m/s or rad/s, any coordinate of v) a simulated state counts as
+/// diverged: IDynamicsModel::simulateStep refuses to step from it.
+constexpr double kMaxSimulatedSpeed = 1e3;
+
 class IDynamicsModel {
  public:
   virtual ~IDynamicsModel() = default;
@@ -86,7 +90,9 @@ class IDynamicsModel {
   virtual void detectContacts(ContactList& out) const = 0;
   /// Advances the state by one step of the engine's own simulator (its own contact and
   /// integration scheme) with joint torques @p tau_J held over @p dt_s seconds. Throws
-  /// std::runtime_error, keeping the previous state, if the step diverged (non-finite).
+  /// std::runtime_error, keeping the previous state, if the step diverged (non-finite) or
+  /// would start from a diverged state (a speed above kMaxSimulatedSpeed, or non-finite
+  /// torques): the engines assert (abort) on NaN inside a step.
   virtual void simulateStep(const Eigen::Ref<const Eigen::VectorXd>& tau_J, double dt_s) = 0;
 };
 

@@ -106,8 +106,10 @@ struct RobotDescription {
 };
 
 /// Checks what dynamics needs beyond a well-formed URDF: all numbers are finite, masses are
-/// non-negative, every inertia given is symmetric positive semi-definite and satisfies
-/// the triangle inequality; every moving joint moves mass (its subtree has mass, and for
+/// non-negative; every rigid body that moves (a link with the links welded to it by fixed
+/// joints, as the backends lump them) has a positive semi-definite inertia about its centre
+/// of mass (a single link's inertia may be singular or violate the triangle inequality:
+/// the loader warns, see RobotDescription::warnings); every moving joint moves mass (its subtree has mass, and for
 /// a revolute joint an inertia about the joint axis > 0); a floating base carries a
 /// whole-body mass and inertia. Massless links are accepted wherever this holds (e.g. the
 /// intermediate links of a 3-DoF hip). Throws ModelError naming the file, line, element
