@@ -104,7 +104,9 @@ int main(int argc, char** argv) {
   unsigned seed = 1;
   bool fixed_base = false;
   double tol = 1e-9, tol_contact_m = 2e-3, trajectory_s = 0.2, tol_weight = 1e-8;
-  app.add_option("model", model_a, "URDF (default: the human figure)");
+  auto* positional = app.add_option("model", model_a, "URDF (default: the human figure)");
+  app.add_option("-m,--model", model_a, "URDF, as every tool takes it (same as the positional)")
+      ->excludes(positional);
   app.add_option("--model-b", model_b, "a different URDF for the second backend (default: the same)");
   app.add_option("--backend-a", backend_a)->check(CLI::IsMember(availableBackends()));
   app.add_option("--backend-b", backend_b)->check(CLI::IsMember(availableBackends()));
