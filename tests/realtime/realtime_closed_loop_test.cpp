@@ -3,6 +3,7 @@
 // dynfilter-sim --servo-error-rad 0 and dynfilter-replay do over LCM, with the transport
 // replaced by a schedule, so that a sender's timing can be chosen.
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -13,6 +14,12 @@
 
 namespace dynfilter::processes {
 namespace {
+
+// The shipped squat, as the replay plays it to the human figure.
+std::vector<realtime::Clip> squatClips(const urdf::RobotDescription& robot) {
+  auto model = test::makeModel("dart", robot, ModelOptions{});
+  return {{"squat", io::readReferenceMotion(test::sourcePath("data/squat_reference.csv"), model->info()).frames}};
+}
 
 // The balance layer's look-ahead (on by default) at a stream's start: the sender is
 // descheduled for 80 ms as the replay starts and every 0.5 s after (a loaded machine:
@@ -37,9 +44,7 @@ TEST_P(RealtimeClosedLoop, ADescheduledSenderDoesNotTipTheRobotWithTheBalancePre
   setup.seconds = 3.0;
   setup.gap_every_s = 0.5;
   setup.gap_s = 0.08;
-  auto model = test::makeModel("dart", robot, ModelOptions{});
-  const std::vector<realtime::Clip> clips = {
-      {"squat", io::readReferenceMotion(test::sourcePath("data/squat_reference.csv"), model->info()).frames}};
+  const std::vector<realtime::Clip> clips = squatClips(robot);
   const ClosedLoopResult r = runClosedLoop(robot, setup, clips);
   RecordProperty("min_base_z_m", std::to_string(r.min_base_z_m));
   RecordProperty("max_tilt_rad", std::to_string(r.max_tilt_rad));
@@ -57,9 +62,7 @@ TEST_P(RealtimeClosedLoop, ADescheduledSenderDoesNotTipTheRobotWithTheBalancePre
 // now: it squats, 0 re-seeds, with and without the preview, on both engines.
 TEST_P(RealtimeClosedLoop, ASenderSilentAFifthOfASecondAtATimeDoesNotTipTheRobot) {
   const auto robot = urdf::loadUrdfFile(test::humanFigurePath());
-  auto model = test::makeModel("dart", robot, ModelOptions{});
-  const std::vector<realtime::Clip> clips = {
-      {"squat", io::readReferenceMotion(test::sourcePath("data/squat_reference.csv"), model->info()).frames}};
+  const std::vector<realtime::Clip> clips = squatClips(robot);
   for (const bool preview : {true, false}) {
     ClosedLoopSetup setup;
     setup.robot_engine = GetParam();
@@ -84,9 +87,7 @@ TEST_P(RealtimeClosedLoop, ASenderSilentAFifthOfASecondAtATimeDoesNotTipTheRobot
 // squats on both engines, 0 re-seeds.
 TEST_P(RealtimeClosedLoop, ARobotAndSenderFrozenAThirdOfASecondDoNotTipTheRobot) {
   const auto robot = urdf::loadUrdfFile(test::humanFigurePath());
-  auto model = test::makeModel("dart", robot, ModelOptions{});
-  const std::vector<realtime::Clip> clips = {
-      {"squat", io::readReferenceMotion(test::sourcePath("data/squat_reference.csv"), model->info()).frames}};
+  const std::vector<realtime::Clip> clips = squatClips(robot);
   ClosedLoopSetup setup;
   setup.robot_engine = GetParam();
   setup.filter.mode = FilterMode::kQp;

@@ -117,10 +117,12 @@ int main(int argc, char** argv) {
     // diverges under gains that hold a thigh. Those joints get the stable cap.
     const int v0 = info.floating_base ? 6 : 0;
     Eigen::VectorXd kp_j(info.nj), kd_j(info.nj);
+    int capped = 0;
     for (int j = 0; j < info.nj; ++j) {
       const double inertia = A(v0 + j, v0 + j);
       kp_j[j] = std::min(kp, 0.02 * inertia / (dt * dt));
       kd_j[j] = std::min(kd, 0.2 * inertia / dt);
+      capped += kp_j[j] < kp || kd_j[j] < kd ? 1 : 0;
     }
     double peak_tau_ratio = 0.0;
     int peak_joint = 0;
@@ -140,8 +142,6 @@ int main(int argc, char** argv) {
     }
     model->detectContacts(contacts);
     const Eigen::Vector3d base = model->q().head<3>();
-    int capped = 0;
-    for (int j = 0; j < info.nj; ++j) capped += kp_j[j] < kp || kd_j[j] < kd ? 1 : 0;
     std::printf("\nafter %.2f s standing under joint PD (kp %.0f, kd %.0f; %d light joint(s) "
                 "capped for a stable step) in the engine:\n", seconds, kp, kd, capped);
     std::printf("  base at (%+.4f, %+.4f, %.4f) m (drop %.1f mm), %zu contact points\n", base.x(),

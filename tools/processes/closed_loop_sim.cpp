@@ -48,20 +48,21 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
   const double dt = 1e-3;
   const int ticks = static_cast<int>(std::lround((setup.replay_start_s + setup.seconds) / dt));
   Eigen::VectorXd tau = Eigen::VectorXd::Zero(info.nj);
+  // Local time t falls in one of the sender's descheduled gaps.
+  const auto inGap = [&setup](double t) {
+    const double since = t - setup.replay_start_s - setup.gap_first_s;
+    return setup.gap_every_s > 0.0 && since >= 0.0 && std::fmod(since, setup.gap_every_s) < setup.gap_s;
+  };
   for (int k = 0; k <= ticks; ++k) {
     const double now = k * dt;
     for (; next_send <= now + 1e-9; next_send += frame_period) {
-      const double since = next_send - setup.replay_start_s - setup.gap_first_s;
-      if (setup.gap_every_s > 0.0 && since >= 0.0 && std::fmod(since, setup.gap_every_s) < setup.gap_s)
-        continue;  // descheduled: the ticker skips the period
+      if (inGap(next_send)) continue;  // descheduled: the ticker skips the period
       player.frameAt(next_send - setup.replay_start_s, frame);
       frame.time_s = next_send;
       rt.addReference(frame, now, ++sequence);
       ++r.frames_sent;
     }
-    const double since_gap = now - setup.replay_start_s - setup.gap_first_s;
-    const bool robot_stalled = setup.gap_stalls_robot && setup.gap_every_s > 0.0 && since_gap >= 0.0 &&
-                               std::fmod(since_gap, setup.gap_every_s) < setup.gap_s;
+    const bool robot_stalled = setup.gap_stalls_robot && inGap(now);
     if (!robot_stalled) rt.addMeasuredState(robot->q(), robot->v(), now, now);
     const FilterOutput& out = rt.tick(now);
     r.status_union |= rt.status();

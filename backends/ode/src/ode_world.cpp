@@ -12,11 +12,11 @@
 namespace dynfilter::ode_backend {
 namespace {
 
-/// Lumped mass properties of the links welded into one node, in the node frame N.
 /// Smallest principal moment (kg m²) an ODE body is given in ODE's own stepper (dMass
 /// must be positive definite); the analytic queries take the lift off (OdeNode).
 constexpr double kTokenInertia = 1e-9;
 
+/// Lumped mass properties of the links welded into one node, in the node frame N.
 struct LumpedMass {
   double mass_kg = 0.0;
   Eigen::Vector3d p_NCom = Eigen::Vector3d::Zero();

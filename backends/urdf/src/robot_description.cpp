@@ -64,17 +64,19 @@ struct Composite {
     I_origin_R += R * in.I_Com_L * R.transpose() +
                   in.mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
   }
+  // Rotational inertia about the set's centre of mass, R axes (mass_kg > 0).
+  Eigen::Matrix3d inertiaAboutCom() const {
+    const Eigen::Vector3d c = first_moment / mass_kg;
+    return I_origin_R - mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+  }
   // Kinetic energy ×2 of a unit-rate motion of the set about (revolute) or along
   // (prismatic) the axis a through o.
   double unitMotionInertia(bool prismatic, const Eigen::Vector3d& a, const Eigen::Vector3d& o) const {
     if (prismatic) return mass_kg;
     // I about o = I_origin − m(c·o terms): shift with the parallel-axis theorem via the CoM.
     if (!(mass_kg > 0.0)) return 0.0;
-    const Eigen::Vector3d c = first_moment / mass_kg;
-    const Eigen::Matrix3d I_com =
-        I_origin_R - mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
-    const Eigen::Vector3d d = c - o;
-    return a.dot(I_com * a) + mass_kg * a.cross(d).squaredNorm();
+    const Eigen::Vector3d d = first_moment / mass_kg - o;
+    return a.dot(inertiaAboutCom() * a) + mass_kg * a.cross(d).squaredNorm();
   }
 };
 
@@ -129,10 +131,7 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
     const Composite& c = body[li];
     const bool moves = robot.links[li].parent_joint >= 0 || floating_base;
     if (!moves || !(c.mass_kg > 0.0)) continue;  // massless: the joint check below decides
-    const Eigen::Vector3d com = c.first_moment / c.mass_kg;
-    const Eigen::Matrix3d I_com =
-        c.I_origin_R - c.mass_kg * (com.squaredNorm() * Eigen::Matrix3d::Identity() - com * com.transpose());
-    const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I_com).eigenvalues();
+    const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(c.inertiaAboutCom()).eigenvalues();
     if (m[0] >= -std::max(1e-9 * std::abs(m[2]), kMinMovedInertia)) continue;
     const LinkDesc& link = robot.links[li];
     const std::string with =
@@ -184,10 +183,8 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
     const LinkDesc& root = robot.links[static_cast<std::size_t>(robot.root_link)];
     bool ok = all.mass_kg > 0.0;
     if (ok) {
-      const Eigen::Vector3d c = all.first_moment / all.mass_kg;
-      const Eigen::Matrix3d I_com =
-          all.I_origin_R - all.mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
-      ok = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I_com).eigenvalues()[0] > kMinMovedInertia;
+      ok = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(all.inertiaAboutCom()).eigenvalues()[0] >
+           kMinMovedInertia;
     }
     if (!ok)
       throw ModelError(robot.source, root.line, "link \"" + root.name + "\"",
