@@ -20,16 +20,6 @@ constexpr double kInfeasibleAfterS = 0.25;  // s the reference must look infeasi
 constexpr double kReferenceFlatRad = 0.1;  // a reference sole this close to its surface is flat
 constexpr double kRollLookaheadS = 0.25;   // a face rolls only when the reference lifts it this soon
 
-// A unit vector orthogonal to the unit vector n, preferring the projection of @p hint.
-Eigen::Vector3d tangentFrom(const Eigen::Vector3d& n, const Eigen::Vector3d& hint) {
-  Eigen::Vector3d t = hint - n * n.dot(hint);
-  if (t.norm() < 1e-6) {
-    const Eigen::Vector3d other = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-    t = other - n * n.dot(other);
-  }
-  return t.normalized();
-}
-
 }  // namespace
 
 CentroidalState centroidalState(const Eigen::Ref<const Eigen::MatrixXd>& A,
@@ -121,7 +111,7 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
     for (std::size_t s = 0; s < soles_.size(); ++s) {
       SoleFootprint& f = footprints_[s];
       const Eigen::Vector3d n = soles_[s].n_B;
-      const Eigen::Vector3d x = tangentFrom(n, Eigen::Vector3d::UnitX());
+      const Eigen::Vector3d x = contactTangent(n, Eigen::Vector3d::UnitX());
       const Eigen::Vector3d y = n.cross(x);
       double lowest = std::numeric_limits<double>::infinity();
       for (const ContactCandidate& c : candidates_)
@@ -175,7 +165,7 @@ int BalanceLayer::flattenLandings(const IDynamicsModel& model, VirtualLinkSet& l
     const Eigen::Vector3d n_ref = sole_refs_[s].R * soles_[s].n_B;
     if (std::acos(std::clamp(n_ref.dot(n), -1.0, 1.0)) > kReferenceFlatRad) continue;
     Eigen::Isometry3d X_WA = Eigen::Isometry3d::Identity();
-    X_WA.linear().col(0) = tangentFrom(n, X_WS.linear().col(0));
+    X_WA.linear().col(0) = contactTangent(n, X_WS.linear().col(0));
     X_WA.linear().col(1) = n.cross(X_WA.linear().col(0));
     X_WA.linear().col(2) = n;
     // The touching point (on the surface) keeps its place in the sole's plane.

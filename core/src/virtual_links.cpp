@@ -12,16 +12,6 @@ namespace {
 constexpr double kLiftedPairMaxDepth = 0.005;  // m
 constexpr double kRollingSinkDepth = 0.002;    // m: a rolling sole sinking deeper gets its face back
 
-// A unit vector orthogonal to n, preferring the projection of @p hint.
-Eigen::Vector3d tangentFrom(const Eigen::Vector3d& n, const Eigen::Vector3d& hint) {
-  Eigen::Vector3d t = hint - n * n.dot(hint);
-  if (t.norm() < 1e-6) {
-    const Eigen::Vector3d other = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX()
-                                                       : Eigen::Vector3d::UnitY();
-    t = other - n * n.dot(other);
-  }
-  return t.normalized();
-}
 
 }  // namespace
 
@@ -99,7 +89,7 @@ bool VirtualLinkSet::makeLink(const IDynamicsModel& model, const ContactList& ca
   depth /= count;
 
   const Eigen::Isometry3d X_WB = model.bodyPose(body);
-  const Eigen::Vector3d t1 = tangentFrom(n, X_WB.linear().col(0));
+  const Eigen::Vector3d t1 = contactTangent(n, X_WB.linear().col(0));
   const Eigen::Vector3d t2 = n.cross(t1);
   // Farthest pair in the contact plane, centroid of the points.
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();

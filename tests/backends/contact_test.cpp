@@ -1,10 +1,13 @@
 // Contact candidates from each backend's collision engine.
 #include <algorithm>
 #include <cmath>
+#include <random>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/test_support.hpp"
@@ -158,6 +161,114 @@ TEST_P(Contacts, MeshSolesStandAtTheirHullsBottomVertices) {
       EXPECT_LT(nearest, 1e-6) << foot << " contact at " << c.p_BC.transpose();
     }
     EXPECT_EQ(found, 4) << foot;
+  }
+}
+
+// The hulls' ground contacts come from their vertices in both backends
+// (core/hull_contacts.hpp): DART and ODE give the same points, pose by pose. Before, Bullet
+// kept 4 points per hull and ODE up to 16 in its own choice.
+TEST(HullGroundContacts, DartAndOdeGiveTheSamePointsOnLevelAndSlopedGround) {
+  const urdf::RobotDescription robot =
+      urdf::loadUrdfFile(test::testModelPath("mesh_sole_biped.urdf"), {{test::testModelPath("")}, {}});
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int touching_states = 0;
+  for (const double slope_deg : {0.0, 10.0}) {
+    ModelOptions options;
+    options.environment.ground = GroundPlane::sloped(slope_deg * M_PI / 180.0, 0.3);
+    auto dart = test::makeModel("dart", robot, options);
+    auto ode = test::makeModel("ode", robot, options);
+    const Eigen::VectorXd q0 = dart->info().neutralConfiguration();
+    for (int state = 0; state < 60; ++state) {
+      // Even states stand in the neutral posture, turned about z only: on level ground both
+      // soles are flat. Odd states tilt the base and bend the joints.
+      const bool flat = state % 2 == 0;
+      Eigen::VectorXd q = q0;
+      if (!flat)
+        for (int j = 7; j < q.size(); ++j) q[j] += 0.1 * unit(rng);
+      const double tilt_scale = flat ? 0.0 : 0.15;
+      const Eigen::Vector3d tilt(tilt_scale * unit(rng), tilt_scale * unit(rng), M_PI * unit(rng));
+      const Eigen::Quaterniond r(expSO3(tilt));
+      q.segment<4>(3) << r.w(), r.x(), r.y(), r.z();
+      q[2] = standingBaseHeight(*dart, q) - 0.004 * (0.5 + 0.5 * unit(rng));
+      dart->setState(q, Eigen::VectorXd::Zero(dart->nv()));
+      ode->setState(q, Eigen::VectorXd::Zero(ode->nv()));
+      ContactList a, b;
+      dart->detectContacts(a);
+      ode->detectContacts(b);
+      ASSERT_EQ(a.size(), b.size()) << "slope " << slope_deg << " state " << state;
+      touching_states += a.empty() ? 0 : 1;
+      if (flat && slope_deg == 0.0) {
+        EXPECT_EQ(a.size(), 8u) << "state " << state;  // 4 per sole
+      }
+      for (const ContactCandidate& x : a) {
+        double nearest = INFINITY;
+        for (const ContactCandidate& y : b)
+          if (y.body == x.body && y.object == x.object && std::abs(y.depth_m - x.depth_m) < 1e-12)
+            nearest = std::min(nearest, (y.p_WC - x.p_WC).norm());
+        EXPECT_LT(nearest, 1e-12) << "slope " << slope_deg << " state " << state;
+        EXPECT_NEAR(options.environment.ground.signedDistance(x.p_WC), -x.depth_m, 1e-12);
+      }
+    }
+  }
+  EXPECT_EQ(touching_states, 120);
+}
+
+// One floating sole whose collision mesh is an elliptic prism with 24 vertices per ring and
+// its mesh origin outside the hull.
+urdf::RobotDescription roundedSole() {
+  const std::string xml = R"(<robot name="rounded_sole">
+  <link name="sole">
+    <inertial><mass value="1.0"/><inertia ixx="0.002" iyy="0.005" izz="0.006" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 -0.02"/>
+      <geometry><mesh filename="package://dynfilter_test_meshes/meshes/rounded_sole.obj"/></geometry>
+    </collision>
+  </link>
+</robot>)";
+  return urdf::loadUrdfString(xml, "rounded_sole.urdf", {{test::testModelPath("")}, {}});
+}
+
+TEST(HullGroundContacts, ADenseRoundedSoleFlatOnTheGroundGivesTheSameEightPointsInBothEngines) {
+  // Bullet kept 4 of the 24 bottom vertices, ODE 16 (its buffer), each its own choice.
+  const urdf::RobotDescription robot = roundedSole();
+  auto dart = test::makeModel("dart", robot, ModelOptions{});
+  auto ode = test::makeModel("ode", robot, ModelOptions{});
+  for (const double yaw : {0.0, 0.4, 2.0}) {
+    Eigen::VectorXd q(7);
+    q << 0.2, -0.1, 0.015 - 1e-4, std::cos(yaw / 2), 0, 0, std::sin(yaw / 2);
+    ContactList a, b;
+    dart->setState(q, Eigen::VectorXd::Zero(6));
+    ode->setState(q, Eigen::VectorXd::Zero(6));
+    dart->detectContacts(a);
+    ode->detectContacts(b);
+    ASSERT_EQ(a.size(), 8u) << "yaw " << yaw;
+    ASSERT_EQ(b.size(), 8u) << "yaw " << yaw;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      EXPECT_NEAR(a[i].depth_m, 1e-4, 1e-9);  // the OBJ is read in single precision
+      double nearest = INFINITY;
+      for (const ContactCandidate& y : b) nearest = std::min(nearest, (y.p_WC - a[i].p_WC).norm());
+      EXPECT_LT(nearest, 1e-12);
+    }
+  }
+}
+
+TEST(HullGroundContacts, AHullWhoseMeshOriginIsOutsideItIsAValidOdeConvexAndRestsOnTheGround) {
+  // ODE's convex geom wants its origin inside the hull; it printed a warning per face and
+  // per plane otherwise. Each engine's simulator then drops the sole 1 cm onto the ground.
+  const urdf::RobotDescription robot = roundedSole();
+  testing::internal::CaptureStdout();
+  auto ode = test::makeModel("ode", robot, ModelOptions{});
+  const std::string printed = testing::internal::GetCapturedStdout();
+  EXPECT_EQ(printed.find("WARNING"), std::string::npos) << printed;
+  for (const std::string backend : {"dart", "ode"}) {
+    auto model = test::makeModel(backend, robot, ModelOptions{});
+    Eigen::VectorXd q(7);
+    q << 0, 0, 0.025, 1, 0, 0, 0;  // the hull's bottom (link z = −0.015) 1 cm above the ground
+    model->setState(q, Eigen::VectorXd::Zero(6));
+    for (int i = 0; i < 500; ++i) model->simulateStep(Eigen::VectorXd::Zero(0), 1e-3);
+    // At rest on its bottom face: the base 1.5 cm up, within the engines' penetration.
+    EXPECT_NEAR(model->q()[2], 0.015, 2e-3) << backend;
+    EXPECT_LT(model->v().norm(), 0.05) << backend;
   }
 }
 

@@ -38,7 +38,7 @@ std::unique_ptr<IDynamicsModel> makeDartModel(const urdf::RobotDescription& robo
   // The world's own contacts (World::step) follow the same pairs as detectContacts: the
   // robot against the environment, hulls against the ground plane, the rest the slab.
   setup.world->getConstraintSolver()->getCollisionOption().collisionFilter =
-      makeRobotVersusOthersFilter(built.skeleton.get(), env.ground_slab, env.ground_plane);
+      makeRobotVersusOthersFilter(built.skeleton.get(), env.ground_slab, env.ground_plane, true);
   enableHullContacts(setup.world->getConstraintSolver()->getCollisionGroup().get());
 
   setup.info = urdf::makeModelInfo(robot, options.floating_base);
@@ -55,6 +55,7 @@ std::unique_ptr<IDynamicsModel> makeDartModel(const urdf::RobotDescription& robo
   setup.has_mimic = built.has_mimic;
   setup.ground_slab = env.ground_slab;
   setup.ground_plane = env.ground_plane;
+  if (options.environment.has_ground) setup.ground_hulls = urdf::bodyHulls(robot);
   setup.mass_matrix = mass_matrix;
 
   auto model = makeSkeletonModel(std::move(setup));

@@ -34,13 +34,17 @@ using dart::dynamics::Frame;
 // world on every call: ~300 µs.) The built world's ground is two shapes: a slab for
 // primitives (box-box gives the full contact polygon) and a plane for convex-hull meshes
 // (Bullet reports each hull vertex below a plane, but only the closest point per triangle
-// against a box).
+// against a box). Without @p hulls_meet_ground, hulls meet neither (their ground contacts
+// are computed from their vertices).
 class RobotVersusOthersFilter final : public dart::collision::CollisionFilter {
  public:
   RobotVersusOthersFilter(const dart::dynamics::Skeleton* robot,
                           const dart::dynamics::ShapeFrame* ground_slab,
-                          const dart::dynamics::ShapeFrame* ground_plane)
-      : robot_(robot), ground_slab_(ground_slab), ground_plane_(ground_plane) {}
+                          const dart::dynamics::ShapeFrame* ground_plane, bool hulls_meet_ground)
+      : robot_(robot),
+        ground_slab_(ground_slab),
+        ground_plane_(ground_plane),
+        hulls_meet_ground_(hulls_meet_ground) {}
   bool ignoresCollision(const dart::collision::CollisionObject* a,
                         const dart::collision::CollisionObject* b) const override {
     const bool robot_a = isRobot(a);
@@ -48,6 +52,8 @@ class RobotVersusOthersFilter final : public dart::collision::CollisionFilter {
     const auto* robot_object = robot_a ? a : b;
     const auto* other_frame = (robot_a ? b : a)->getShapeFrame();
     const bool hull = robot_object->getShape()->is<dart::dynamics::MeshShape>();
+    if (hull && !hulls_meet_ground_ && (other_frame == ground_plane_ || other_frame == ground_slab_))
+      return true;
     return other_frame == (hull ? ground_slab_ : ground_plane_);
   }
 
@@ -59,6 +65,7 @@ class RobotVersusOthersFilter final : public dart::collision::CollisionFilter {
   const dart::dynamics::Skeleton* robot_;
   const dart::dynamics::ShapeFrame* ground_slab_;
   const dart::dynamics::ShapeFrame* ground_plane_;
+  bool hulls_meet_ground_;
 };
 
 // DART 6.12 keeps a group's Bullet world protected; a derived class may name it.
@@ -107,8 +114,8 @@ class DartSkeletonModel final : public SkeletonModel {
     collision_group_ = detector_->createCollisionGroup();
     for (std::size_t k = 0; k < s_.world->getNumSkeletons(); ++k)
       collision_group_->subscribeTo(s_.world->getSkeleton(k));
-    collision_filter_ =
-        makeRobotVersusOthersFilter(s_.skeleton.get(), s_.ground_slab, s_.ground_plane);
+    collision_filter_ = makeRobotVersusOthersFilter(s_.skeleton.get(), s_.ground_slab,
+                                                    s_.ground_plane, s_.ground_hulls.empty());
     if (s_.ground_plane != nullptr) enableHullContacts(collision_group_.get());
     if (!pullSkeletonState())
       throw InvalidStateError("skeleton \"" + s_.skeleton->getName() +
@@ -354,18 +361,11 @@ class DartSkeletonModel final : public SkeletonModel {
       cand.n_W = (robot_first ? c.normal : -c.normal).normalized();
       cand.depth_m = c.penetrationDepth;
       cand.p_WC = c.point;
-      if (s_.ground_plane != nullptr &&
-          (robot_first ? node2 : node1) == s_.ground_plane &&
-          (robot_first ? node1 : node2)->getShape()->is<dart::dynamics::MeshShape>()) {
-        // Bullet's GImpact-versus-plane contact puts the point one depth beyond the hull
-        // vertex: move it back to the vertex, which lies depth_m below the plane.
-        const GroundPlane& g = s_.environment.ground;
-        const double below = g.offset_m - g.n_W.dot(cand.p_WC);
-        cand.p_WC += cand.n_W * (below - cand.depth_m);
-      }
       cand.p_BC = bodyPose(cand.body).inverse() * cand.p_WC;
       out.push(cand);
     }
+    for (const BodyHull& hull : s_.ground_hulls)
+      appendHullGroundContacts(hull, bodyPose(hull.body), s_.environment.ground, out);
   }
 
   void simulateStep(const Eigen::Ref<const Eigen::VectorXd>& tau_J, double dt_s) override {
@@ -459,8 +459,9 @@ class DartSkeletonModel final : public SkeletonModel {
 
 std::shared_ptr<dart::collision::CollisionFilter> makeRobotVersusOthersFilter(
     const dart::dynamics::Skeleton* robot, const dart::dynamics::ShapeFrame* ground_slab,
-    const dart::dynamics::ShapeFrame* ground_plane) {
-  return std::make_shared<RobotVersusOthersFilter>(robot, ground_slab, ground_plane);
+    const dart::dynamics::ShapeFrame* ground_plane, bool hulls_meet_ground) {
+  return std::make_shared<RobotVersusOthersFilter>(robot, ground_slab, ground_plane,
+                                                   hulls_meet_ground);
 }
 
 void enableHullContacts(dart::collision::CollisionGroup* group) {

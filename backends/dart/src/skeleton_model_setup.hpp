@@ -12,6 +12,7 @@
 #include <dart/dynamics/ShapeFrame.hpp>
 
 #include "dart_skeleton_builder.hpp"
+#include "dynfilter/core/hull_contacts.hpp"
 #include "dynfilter/core/model_info.hpp"
 #include "dynfilter/dart/skeleton_model.hpp"
 
@@ -38,20 +39,23 @@ struct SkeletonModelSetup {
   std::vector<double> factor_of_dof;
   std::vector<double> offset_of_dof;
   bool has_mimic = false;
-  /// The built world's ground twins (null for a user's world): a convex-hull mesh meets
-  /// only the plane, every other shape only the slab; hull contacts with the plane get
-  /// Bullet's GImpact algorithm and their points moved back onto the hull vertices.
+  /// The built world's ground twins (null for a user's world): in the world's own
+  /// simulation a convex-hull mesh meets only the plane (Bullet's GImpact algorithm),
+  /// every other shape only the slab.
   const dart::dynamics::ShapeFrame* ground_slab = nullptr;
   const dart::dynamics::ShapeFrame* ground_plane = nullptr;
+  /// The hulls whose ground contacts detectContacts computes from their vertices
+  /// (core/hull_contacts.hpp), the same way as the ODE backend; empty for a user's world.
+  std::vector<BodyHull> ground_hulls;
   DartMassMatrix mass_matrix = DartMassMatrix::kBodySum;
 };
 
 /// Keeps only pairs with exactly one shape on @p robot; against the ground twins (either
-/// may be null) a MeshShape meets only @p ground_plane and any other shape only
-/// @p ground_slab.
+/// may be null) a MeshShape meets only @p ground_plane (neither, without
+/// @p hulls_meet_ground) and any other shape only @p ground_slab.
 std::shared_ptr<dart::collision::CollisionFilter> makeRobotVersusOthersFilter(
     const dart::dynamics::Skeleton* robot, const dart::dynamics::ShapeFrame* ground_slab,
-    const dart::dynamics::ShapeFrame* ground_plane);
+    const dart::dynamics::ShapeFrame* ground_plane, bool hulls_meet_ground);
 
 /// DART hands a MeshShape to Bullet as a btGImpactMeshShape but registers no collision
 /// algorithm for it: registers Bullet's GImpact algorithm on @p group's dispatcher and

@@ -9,6 +9,7 @@
 #include <ode/ode.h>
 
 #include "dynfilter/core/environment.hpp"
+#include "dynfilter/core/hull_contacts.hpp"
 #include "dynfilter/core/model_info.hpp"
 #include "dynfilter/ode/body_model.hpp"
 #include "ode_world.hpp"
@@ -39,6 +40,13 @@ class OdeBodies {
   virtual void collide(void* data, dNearCallback* callback) const = 0;
   /// Returns false for a geom the model does not know.
   virtual bool role(dGeomID geom, GeomRole& out) const = 0;
+  /// The convex hulls whose contacts with the ground plane the model computes itself
+  /// (core/hull_contacts.hpp) instead of ODE's convex-plane collider. Default: none (a
+  /// user's world keeps ODE's contacts).
+  virtual const std::vector<BodyHull>& groundHulls() const {
+    static const std::vector<BodyHull> none;
+    return none;
+  }
 };
 
 /// The model over @p bodies; (q, v) start as the bodies' current state when

@@ -67,7 +67,9 @@ class UrdfBodies final : public OdeBodies {
  public:
   UrdfBodies(const urdf::RobotDescription& robot, const ModelOptions& options)
       : world_(robot, options.floating_base, options.gravity_W, options.environment,
-               options.enforce_joint_limits_in_simulation) {}
+               options.enforce_joint_limits_in_simulation) {
+    if (options.environment.has_ground) ground_hulls_ = urdf::bodyHulls(robot);
+  }
   dWorldID world() const override { return world_.world(); }
   dJointGroupID contactGroup() const override { return world_.contactGroup(); }
   const std::vector<OdeNode>& nodes() const override { return world_.nodes(); }
@@ -86,9 +88,11 @@ class UrdfBodies final : public OdeBodies {
     out.friction = tag->friction;
     return true;
   }
+  const std::vector<BodyHull>& groundHulls() const override { return ground_hulls_; }
 
  private:
   OdeWorld world_;
+  std::vector<BodyHull> ground_hulls_;
 };
 
 class OdeModel final : public OdeBodyModel {
@@ -295,6 +299,8 @@ class OdeModel final : public OdeBodyModel {
     pass.model = this;
     pass.out = &out;
     collide(pass);
+    for (const BodyHull& hull : ode_.groundHulls())
+      appendHullGroundContacts(hull, bodyPose(hull.body), environment_.ground, out);
   }
 
   void simulateStep(const Eigen::Ref<const Eigen::VectorXd>& tau_J, double dt_s) override {
@@ -340,6 +346,10 @@ class OdeModel final : public OdeBodyModel {
     const dGeomID env_geom = robot_first ? g2 : g1;
     const GeomRole& robot = robot_first ? r1 : r2;
     const GeomRole& env = robot_first ? r2 : r1;
+    // The hulls' ground contacts come from detectContacts itself (engine-independent).
+    if (!pass.simulate && !ode_.groundHulls().empty() && dGeomGetClass(robot_geom) == dConvexClass &&
+        dGeomGetClass(env_geom) == dPlaneClass)
+      return;
     // dCollide(robot, environment): ODE's normal then points out of the environment into
     // the robot shape, i.e. it pushes the body out, and it is the right normal for a
     // contact joint attached (robot body, world).

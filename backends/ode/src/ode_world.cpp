@@ -256,6 +256,7 @@ void OdeWorld::createRobotGeoms(const urdf::RobotDescription& robot) {
     const OdeNode& node = nodes_[static_cast<std::size_t>(frame.node)];
     for (const auto& shape : robot.links[l].collisions) {
       dGeomID geom = nullptr;
+      Eigen::Vector3d p_SO = Eigen::Vector3d::Zero();  // the geom's origin in the shape frame
       switch (shape.kind) {
         case urdf::ShapeKind::kBox:
           geom = dCreateBox(robot_space_, shape.box_size_m.x(), shape.box_size_m.y(),
@@ -268,7 +269,7 @@ void OdeWorld::createRobotGeoms(const urdf::RobotDescription& robot) {
           geom = dCreateCylinder(robot_space_, shape.radius_m, shape.length_m);
           break;
         case urdf::ShapeKind::kConvexHull:
-          geom = createConvexGeom(shape.hull);
+          geom = createConvexGeom(shape.hull, p_SO);
           break;
       }
       if (geom == nullptr) continue;
@@ -280,7 +281,7 @@ void OdeWorld::createRobotGeoms(const urdf::RobotDescription& robot) {
       dGeomSetData(geom, &geom_tags_.back());
       dMatrix3 R;
       if (node.body != nullptr) {
-        const Eigen::Isometry3d X_BS = frame.X_BL * shape.X_LS;
+        const Eigen::Isometry3d X_BS = frame.X_BL * shape.X_LS * Eigen::Translation3d(p_SO);
         toOdeRotation(X_BS.linear(), R);
         dGeomSetBody(geom, node.body);
         dGeomSetOffsetPosition(geom, X_BS.translation().x(), X_BS.translation().y(),
@@ -288,7 +289,7 @@ void OdeWorld::createRobotGeoms(const urdf::RobotDescription& robot) {
         dGeomSetOffsetRotation(geom, R);
       } else {
         // On the fixed root, i.e. the world (the root's frame is the world frame).
-        const Eigen::Isometry3d X_WS = frame.X_NL * shape.X_LS;
+        const Eigen::Isometry3d X_WS = frame.X_NL * shape.X_LS * Eigen::Translation3d(p_SO);
         toOdeRotation(X_WS.linear(), R);
         dGeomSetPosition(geom, X_WS.translation().x(), X_WS.translation().y(),
                          X_WS.translation().z());
@@ -298,14 +299,38 @@ void OdeWorld::createRobotGeoms(const urdf::RobotDescription& robot) {
   }
 }
 
-dGeomID OdeWorld::createConvexGeom(const urdf::ConvexHull& hull) {
+dGeomID OdeWorld::createConvexGeom(const urdf::ConvexHull& hull, Eigen::Vector3d& p_SO) {
+  // ODE's convex colliders take the geom's origin to be inside the hull: give it the
+  // vertices and planes about their centroid O, and the caller places the geom at O.
+  p_SO.setZero();
+  for (const Eigen::Vector3d& v : hull.vertices_S) p_SO += v;
+  p_SO /= static_cast<double>(hull.vertices_S.size());
   auto data = std::make_unique<ConvexData>();
-  for (const Eigen::Vector4d& p : hull.planes_S) data->planes.insert(data->planes.end(), p.data(), p.data() + 4);
-  for (const Eigen::Vector3d& v : hull.vertices_S)
-    data->points.insert(data->points.end(), v.data(), v.data() + 3);
+  for (const Eigen::Vector4d& p : hull.planes_S) {
+    const Eigen::Vector4d about_o(p.x(), p.y(), p.z(), p.w() - p.head<3>().dot(p_SO));
+    data->planes.insert(data->planes.end(), about_o.data(), about_o.data() + 4);
+  }
+  for (const Eigen::Vector3d& v : hull.vertices_S) {
+    const Eigen::Vector3d about_o = v - p_SO;
+    data->points.insert(data->points.end(), about_o.data(), about_o.data() + 3);
+  }
   for (const auto& face : hull.faces) {
-    data->polygons.push_back(static_cast<unsigned int>(face.size()));
-    for (const int i : face) data->polygons.push_back(static_cast<unsigned int>(i));
+    // ODE checks a face's winding on its first three vertices (their triple product about
+    // O): start the loop where they span the most volume, not on a nearly straight run.
+    const std::size_t m = face.size();
+    std::size_t start = 0;
+    double widest = -1.0;
+    for (std::size_t k = 0; k < m; ++k) {
+      const auto at = [&](std::size_t j) { return hull.vertices_S[static_cast<std::size_t>(face[(k + j) % m])] - p_SO; };
+      const double volume = at(0).dot(at(1).cross(at(2)));
+      if (volume > widest) {
+        widest = volume;
+        start = k;
+      }
+    }
+    data->polygons.push_back(static_cast<unsigned int>(m));
+    for (std::size_t j = 0; j < m; ++j)
+      data->polygons.push_back(static_cast<unsigned int>(face[(start + j) % m]));
   }
   dGeomID geom = dCreateConvex(robot_space_, data->planes.data(),
                                static_cast<unsigned int>(hull.planes_S.size()), data->points.data(),

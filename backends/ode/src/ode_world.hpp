@@ -109,7 +109,9 @@ class OdeWorld {
   void setJointLimits(const OdeNode& node);
   void createRobotGeoms(const urdf::RobotDescription& robot);
   void createEnvironmentGeoms(const Environment& environment);
-  dGeomID createConvexGeom(const urdf::ConvexHull& hull);
+  /// The convex geom of @p hull, about the hull's vertex centroid, returned in @p p_SO
+  /// (shape frame): the geom belongs there.
+  dGeomID createConvexGeom(const urdf::ConvexHull& hull, Eigen::Vector3d& p_SO);
 
   dWorldID world_ = nullptr;
   dSpaceID robot_space_ = nullptr;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 
@@ -279,6 +280,19 @@ void lockJoints(RobotDescription& robot, const std::vector<JointLock>& locks) {
     joint.coordinate = static_cast<int>(robot.moving_joints.size());
     robot.moving_joints.push_back(static_cast<int>(j));
   }
+}
+
+std::vector<BodyHull> bodyHulls(const RobotDescription& robot) {
+  std::vector<BodyHull> hulls;
+  for (std::size_t l = 0; l < robot.links.size(); ++l)
+    for (const CollisionShapeDesc& shape : robot.links[l].collisions) {
+      if (shape.kind != ShapeKind::kConvexHull) continue;
+      Eigen::Matrix3Xd p_SV(3, static_cast<Eigen::Index>(shape.hull.vertices_S.size()));
+      for (std::size_t i = 0; i < shape.hull.vertices_S.size(); ++i)
+        p_SV.col(static_cast<Eigen::Index>(i)) = shape.hull.vertices_S[i];
+      hulls.push_back(BodyHull::make(static_cast<int>(l), shape.X_LS, std::move(p_SV)));
+    }
+  return hulls;
 }
 
 }  // namespace dynfilter::urdf

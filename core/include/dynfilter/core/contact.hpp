@@ -22,6 +22,11 @@ struct ContactCandidate {
   double depth_m = 0.0;              ///< penetration depth (m, ≥ 0)
 };
 
+/// A unit vector orthogonal to the unit vector @p n_W, preferring the projection of
+/// @p hint_W onto the plane of @p n_W (x or y when @p hint_W is nearly parallel to it).
+/// The tangent of every contact frame the core builds.
+Eigen::Vector3d contactTangent(const Eigen::Vector3d& n_W, const Eigen::Vector3d& hint_W);
+
 /// A contact list of fixed capacity: filling it never allocates. Candidates beyond the
 /// capacity are counted in overflow() and dropped.
 class ContactList {

@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "dynfilter/core/hull_contacts.hpp"
 #include "dynfilter/core/model_info.hpp"
 
 namespace dynfilter::urdf {
@@ -129,5 +130,9 @@ void lockJoints(RobotDescription& robot, const std::vector<JointLock>& locks);
 /// The model's names, sizes and limits as every backend reports them (ModelInfo): joints
 /// are the moving joints in file order, bodies all links in file order.
 ModelInfo makeModelInfo(const RobotDescription& robot, bool floating_base);
+
+/// Every convex-hull collision shape of @p robot with its link (body index = link index),
+/// for the backends' hull-against-ground contacts (core/hull_contacts.hpp).
+std::vector<BodyHull> bodyHulls(const RobotDescription& robot);
 
 }  // namespace dynfilter::urdf
