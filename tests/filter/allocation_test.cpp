@@ -17,6 +17,7 @@
 
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/dynamics_simulator.hpp"
+#include "dynfilter/core/hull_contacts.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
@@ -179,6 +180,30 @@ TEST_P(AllocationQp, QpModeSteadyStateTickAllocatesNothingInTheCore) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, AllocationQp, ::testing::Values("daqp", "proxqp"));
+
+TEST(Allocation, HullGroundContactsAllocateNothing) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
+  // Both backends call this in every detectContacts: a 64-vertex hull, half below a slope.
+  Eigen::Matrix3Xd p_SV(3, 64);
+  for (int i = 0; i < 32; ++i)
+    for (int ring = 0; ring < 2; ++ring)
+      p_SV.col(2 * i + ring) << 0.1 * std::cos(i * 0.2), 0.05 * std::sin(i * 0.2), ring ? 0.02 : -0.02;
+  const BodyHull hull = BodyHull::make(2, Eigen::Isometry3d::Identity(), p_SV);
+  const GroundPlane ground = GroundPlane::sloped(0.1);
+  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+  X_WB.translation().z() = 0.015;
+  ContactList out;
+  resetCounts();
+  g_counting = true;
+  for (int k = 0; k < 100; ++k) {
+    out.clear();
+    appendHullGroundContacts(hull, X_WB, ground, out);
+  }
+  g_counting = false;
+  EXPECT_GT(out.size(), 0u);
+  EXPECT_EQ(g_core_new.load(), 0);
+  EXPECT_EQ(g_core_malloc.load(), 0);
+}
 
 TEST(Allocation, CountingWorks) {
   if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
