@@ -272,6 +272,55 @@ TEST(HullGroundContacts, AHullWhoseMeshOriginIsOutsideItIsAValidOdeConvexAndRest
   }
 }
 
+// The same for cylinders, which are primitives in both engines: a floating cylinder near the
+// ground in random poses, upright, lying and tilted, on level ground and on a 10° slope.
+TEST(HullGroundContacts, DartAndOdeGiveTheSamePointsForACylinder) {
+  const urdf::RobotDescription robot = urdf::loadUrdfString(R"(<robot name="can">
+  <link name="can">
+    <inertial><mass value="1.0"/><inertia ixx="0.004" iyy="0.004" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0.02 0" rpy="0.1 0 0"/><geometry><cylinder radius="0.04" length="0.2"/></geometry></collision>
+  </link>
+</robot>)", "can.urdf");
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int touching = 0, face_like = 0;
+  for (const double slope_deg : {0.0, 10.0}) {
+    ModelOptions options;
+    options.environment.ground = GroundPlane::sloped(slope_deg * M_PI / 180.0, 1.0);
+    auto dart = test::makeModel("dart", robot, options);
+    auto ode = test::makeModel("ode", robot, options);
+    for (int state = 0; state < 60; ++state) {
+      // Every third state upright (about the world's z; the shape is rolled by 0.1 rad in
+      // its link), every sixth lying on its side, the rest at random.
+      Eigen::Matrix3d R = expSO3(Eigen::Vector3d(M_PI * unit(rng), M_PI * unit(rng), M_PI * unit(rng)));
+      if (state % 3 == 0) R = expSO3(Eigen::Vector3d(0, 0, M_PI * unit(rng))) * expSO3(Eigen::Vector3d(-0.1, 0, 0));
+      if (state % 6 == 3) R = expSO3(Eigen::Vector3d(M_PI / 2 - 0.1, 0, 0));
+      const Eigen::Quaterniond r(R);
+      Eigen::VectorXd q(7);
+      q << 0.1, -0.2, 0.0, r.w(), r.x(), r.y(), r.z();
+      q[2] = standingBaseHeight(*dart, q) - 0.003 * (0.5 + 0.5 * unit(rng));
+      dart->setState(q, Eigen::VectorXd::Zero(6));
+      ode->setState(q, Eigen::VectorXd::Zero(6));
+      ContactList a, b;
+      dart->detectContacts(a);
+      ode->detectContacts(b);
+      ASSERT_EQ(a.size(), b.size()) << "slope " << slope_deg << " state " << state;
+      touching += a.empty() ? 0 : 1;
+      face_like += a.size() >= 4 ? 1 : 0;
+      for (const ContactCandidate& x : a) {
+        double nearest = INFINITY;
+        for (const ContactCandidate& y : b)
+          if (std::abs(y.depth_m - x.depth_m) < 1e-12) nearest = std::min(nearest, (y.p_WC - x.p_WC).norm());
+        EXPECT_LT(nearest, 1e-12) << "slope " << slope_deg << " state " << state;
+        EXPECT_NEAR(options.environment.ground.signedDistance(x.p_WC), -x.depth_m, 1e-12);
+        EXPECT_LE(x.depth_m, 0.003 + 1e-9);
+      }
+    }
+  }
+  EXPECT_EQ(touching, 120);
+  EXPECT_GE(face_like, 20);  // the upright and lying ones on level ground
+}
+
 INSTANTIATE_TEST_SUITE_P(AllBackends, Contacts, testing::ValuesIn(test::allBackends()),
                          test::BackendName());
 

@@ -177,5 +177,74 @@ TEST(HullContacts, AnEmptyOrNonFiniteHullIsRefused) {
   EXPECT_THROW(BodyHull::make(0, Eigen::Isometry3d::Identity(), bad), std::invalid_argument);
 }
 
+TEST(CylinderContacts, AnUprightCylinderOneMillimetreDeepTouchesAtEightPointsOfItsBottomRim) {
+  const BodyCylinder cylinder{4, pose({0, 0, -0.1}, {0, 0, 0}), 0.05, 0.2};
+  const Eigen::Isometry3d X_WB = pose({0.3, 0.1, 0.2 - 0.001}, {0, 0, 0.6});
+  ContactList out;
+  ASSERT_EQ(appendCylinderGroundContacts(cylinder, X_WB, GroundPlane{}, out), 8);
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    const ContactCandidate& c = out[k];
+    EXPECT_EQ(c.body, 4);
+    EXPECT_NEAR(c.depth_m, 1e-3, 1e-12);
+    EXPECT_NEAR(c.p_BC.z(), -0.2, 1e-12);
+    EXPECT_NEAR(c.p_BC.head<2>().norm(), 0.05, 1e-12);
+    // Along the body's x turned by k · 45°.
+    const double a = static_cast<double>(k) * M_PI / 4;
+    EXPECT_LT((c.p_BC.head<2>() / 0.05 - Eigen::Vector2d(std::cos(a), std::sin(a))).norm(), 1e-9);
+    EXPECT_LT((X_WB * c.p_BC - c.p_WC).norm(), 1e-12);
+  }
+}
+
+TEST(CylinderContacts, ACylinderOnItsSideTouchesAlongItsLowestLineAtItsTrueDepth) {
+  // Axis along the body's x; 1 mm deep: the arc below each rim is 2√(2 r d) wide.
+  const double r = 0.05, depth = 1e-3;
+  const BodyCylinder cylinder{0, pose(Eigen::Vector3d::Zero(), {0, M_PI / 2, 0}), r, 0.3};
+  const Eigen::Isometry3d X_WB = pose({0, 0, r - depth}, {0, 0, 0.2});
+  ContactList out;
+  const int added = appendCylinderGroundContacts(cylinder, X_WB, GroundPlane{}, out);
+  ASSERT_GE(added, 4);
+  double deepest = 0.0, y_lo = INFINITY, y_hi = -INFINITY, x_lo = INFINITY, x_hi = -INFINITY;
+  for (const ContactCandidate& c : out) {
+    EXPECT_GE(c.depth_m, 0.0);
+    EXPECT_LE(c.depth_m, depth + 1e-12);
+    EXPECT_NEAR(c.p_BC.y() * c.p_BC.y() + c.p_BC.z() * c.p_BC.z(), r * r, 1e-12);  // on a rim
+    deepest = std::max(deepest, c.depth_m);
+    x_lo = std::min(x_lo, c.p_BC.x());
+    x_hi = std::max(x_hi, c.p_BC.x());
+    y_lo = std::min(y_lo, c.p_BC.y());
+    y_hi = std::max(y_hi, c.p_BC.y());
+  }
+  EXPECT_NEAR(deepest, depth, 1e-12);
+  EXPECT_NEAR(x_hi - x_lo, 0.3, 1e-12);  // both rims
+  const double half_chord = std::sqrt(r * r - (r - depth) * (r - depth));
+  EXPECT_NEAR(y_hi, half_chord, 1e-12);
+  EXPECT_NEAR(y_lo, -half_chord, 1e-12);
+}
+
+TEST(CylinderContacts, ATiltedCylinderTouchesAtTheArcOfItsLowerRimOnly) {
+  // Tilted by 0.3 rad about the body's x, its lowest rim point 2 mm deep: every point lies
+  // on that rim, within the arc below the plane, the deepest one included.
+  const double r = 0.04, half = 0.1;
+  const BodyCylinder cylinder{1, Eigen::Isometry3d::Identity(), r, 2 * half};
+  Eigen::Isometry3d X_WB = pose(Eigen::Vector3d::Zero(), {0.3, 0, 0});
+  const double lowest = -half * std::cos(0.3) - r * std::sin(0.3);
+  X_WB.translation().z() = -lowest - 0.002;
+  ContactList out;
+  ASSERT_GE(appendCylinderGroundContacts(cylinder, X_WB, GroundPlane{}, out), 3);
+  double deepest = 0.0;
+  for (const ContactCandidate& c : out) {
+    EXPECT_NEAR(c.p_BC.z(), -half, 1e-12);
+    EXPECT_NEAR(c.p_BC.head<2>().norm(), r, 1e-12);
+    EXPECT_GE(c.depth_m, 0.0);
+    EXPECT_NEAR(c.depth_m, -c.p_WC.z(), 1e-15);
+    deepest = std::max(deepest, c.depth_m);
+  }
+  EXPECT_NEAR(deepest, 0.002, 1e-12);
+  // Lifted clear: none.
+  X_WB.translation().z() += 0.0021;
+  out.clear();
+  EXPECT_EQ(appendCylinderGroundContacts(cylinder, X_WB, GroundPlane{}, out), 0);
+}
+
 }  // namespace
 }  // namespace dynfilter

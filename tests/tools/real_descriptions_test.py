@@ -11,7 +11,7 @@ Checks:
 - dynfilter-crosscheck passes on every loadable description but the known ones below: DART
   and ODE agree on A, b, J, J̇·v and forward dynamics, and on the points where the robot
   standing 1 mm deep touches the ground (mesh hulls included: their ground contacts come
-  from the hull's vertices in both backends).
+  from the hull's vertices in both backends, a cylinder's from its rims).
 
 Prints "real descriptions ok" on success; exit 77 (skipped) when the wheel is not installed.
 """
@@ -30,11 +30,6 @@ REFUSED = {
 }
 # dynfilter-crosscheck fails, known and not fixed: (file name, why).
 CROSSCHECK_KNOWN = {
-    # Cylinders against the ground: Bullet and ODE report different points (a primitive,
-    # not a hull).
-    "centauro.urdf": "cylinder contacts", "simple_humanoid.urdf": "cylinder contacts",
-    "tiago.urdf": "cylinder contacts", "tiago_no_hand.urdf": "cylinder contacts",
-    "tiago_pro.urdf": "cylinder contacts", "z1.urdf": "cylinder contacts",
     # DART's own simulator runs away on light links in the check's passive trajectory.
     "baxter.urdf": "DART trajectory runs away", "icub.urdf": "DART trajectory runs away",
 }

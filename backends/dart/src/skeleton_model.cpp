@@ -15,6 +15,7 @@
 #include <dart/collision/bullet/BulletCollisionGroup.hpp>
 #include <BulletCollision/Gimpact/btGImpactCollisionAlgorithm.h>
 #include <dart/constraint/ConstraintSolver.hpp>
+#include <dart/dynamics/CylinderShape.hpp>
 #include <dart/dynamics/FreeJoint.hpp>
 #include <dart/dynamics/MeshShape.hpp>
 #include <dart/dynamics/ShapeNode.hpp>
@@ -34,17 +35,17 @@ using dart::dynamics::Frame;
 // world on every call: ~300 µs.) The built world's ground is two shapes: a slab for
 // primitives (box-box gives the full contact polygon) and a plane for convex-hull meshes
 // (Bullet reports each hull vertex below a plane, but only the closest point per triangle
-// against a box). Without @p hulls_meet_ground, hulls meet neither (their ground contacts
-// are computed from their vertices).
+// against a box). Without @p engine_ground_contacts, hulls and cylinders meet neither
+// (their ground contacts are computed from their geometry).
 class RobotVersusOthersFilter final : public dart::collision::CollisionFilter {
  public:
   RobotVersusOthersFilter(const dart::dynamics::Skeleton* robot,
                           const dart::dynamics::ShapeFrame* ground_slab,
-                          const dart::dynamics::ShapeFrame* ground_plane, bool hulls_meet_ground)
+                          const dart::dynamics::ShapeFrame* ground_plane, bool engine_ground_contacts)
       : robot_(robot),
         ground_slab_(ground_slab),
         ground_plane_(ground_plane),
-        hulls_meet_ground_(hulls_meet_ground) {}
+        engine_ground_contacts_(engine_ground_contacts) {}
   bool ignoresCollision(const dart::collision::CollisionObject* a,
                         const dart::collision::CollisionObject* b) const override {
     const bool robot_a = isRobot(a);
@@ -52,7 +53,8 @@ class RobotVersusOthersFilter final : public dart::collision::CollisionFilter {
     const auto* robot_object = robot_a ? a : b;
     const auto* other_frame = (robot_a ? b : a)->getShapeFrame();
     const bool hull = robot_object->getShape()->is<dart::dynamics::MeshShape>();
-    if (hull && !hulls_meet_ground_ && (other_frame == ground_plane_ || other_frame == ground_slab_))
+    const bool own = hull || robot_object->getShape()->is<dart::dynamics::CylinderShape>();
+    if (own && !engine_ground_contacts_ && (other_frame == ground_plane_ || other_frame == ground_slab_))
       return true;
     return other_frame == (hull ? ground_slab_ : ground_plane_);
   }
@@ -65,7 +67,7 @@ class RobotVersusOthersFilter final : public dart::collision::CollisionFilter {
   const dart::dynamics::Skeleton* robot_;
   const dart::dynamics::ShapeFrame* ground_slab_;
   const dart::dynamics::ShapeFrame* ground_plane_;
-  bool hulls_meet_ground_;
+  bool engine_ground_contacts_;
 };
 
 // DART 6.12 keeps a group's Bullet world protected; a derived class may name it.
@@ -115,7 +117,7 @@ class DartSkeletonModel final : public SkeletonModel {
     for (std::size_t k = 0; k < s_.world->getNumSkeletons(); ++k)
       collision_group_->subscribeTo(s_.world->getSkeleton(k));
     collision_filter_ = makeRobotVersusOthersFilter(s_.skeleton.get(), s_.ground_slab,
-                                                    s_.ground_plane, s_.ground_hulls.empty());
+                                                    s_.ground_plane, !s_.own_ground_contacts);
     if (s_.ground_plane != nullptr) enableHullContacts(collision_group_.get());
     if (!pullSkeletonState())
       throw InvalidStateError("skeleton \"" + s_.skeleton->getName() +
@@ -366,6 +368,8 @@ class DartSkeletonModel final : public SkeletonModel {
     }
     for (const BodyHull& hull : s_.ground_hulls)
       appendHullGroundContacts(hull, bodyPose(hull.body), s_.environment.ground, out);
+    for (const BodyCylinder& cylinder : s_.ground_cylinders)
+      appendCylinderGroundContacts(cylinder, bodyPose(cylinder.body), s_.environment.ground, out);
   }
 
   void simulateStep(const Eigen::Ref<const Eigen::VectorXd>& tau_J, double dt_s) override {
@@ -459,9 +463,9 @@ class DartSkeletonModel final : public SkeletonModel {
 
 std::shared_ptr<dart::collision::CollisionFilter> makeRobotVersusOthersFilter(
     const dart::dynamics::Skeleton* robot, const dart::dynamics::ShapeFrame* ground_slab,
-    const dart::dynamics::ShapeFrame* ground_plane, bool hulls_meet_ground) {
+    const dart::dynamics::ShapeFrame* ground_plane, bool engine_ground_contacts) {
   return std::make_shared<RobotVersusOthersFilter>(robot, ground_slab, ground_plane,
-                                                   hulls_meet_ground);
+                                                   engine_ground_contacts);
 }
 
 void enableHullContacts(dart::collision::CollisionGroup* group) {

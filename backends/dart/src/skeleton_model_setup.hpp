@@ -44,18 +44,21 @@ struct SkeletonModelSetup {
   /// every other shape only the slab.
   const dart::dynamics::ShapeFrame* ground_slab = nullptr;
   const dart::dynamics::ShapeFrame* ground_plane = nullptr;
-  /// The hulls whose ground contacts detectContacts computes from their vertices
-  /// (core/hull_contacts.hpp), the same way as the ODE backend; empty for a user's world.
+  /// For a URDF-built world with a ground: detectContacts computes the ground contacts of
+  /// the hulls and cylinders below from their geometry (core/hull_contacts.hpp), the same
+  /// way as the ODE backend. False (and both empty) for a user's world.
+  bool own_ground_contacts = false;
   std::vector<BodyHull> ground_hulls;
+  std::vector<BodyCylinder> ground_cylinders;
   DartMassMatrix mass_matrix = DartMassMatrix::kBodySum;
 };
 
 /// Keeps only pairs with exactly one shape on @p robot; against the ground twins (either
-/// may be null) a MeshShape meets only @p ground_plane (neither, without
-/// @p hulls_meet_ground) and any other shape only @p ground_slab.
+/// may be null) a MeshShape meets only @p ground_plane and any other shape only
+/// @p ground_slab; without @p engine_ground_contacts meshes and cylinders meet neither.
 std::shared_ptr<dart::collision::CollisionFilter> makeRobotVersusOthersFilter(
     const dart::dynamics::Skeleton* robot, const dart::dynamics::ShapeFrame* ground_slab,
-    const dart::dynamics::ShapeFrame* ground_plane, bool hulls_meet_ground);
+    const dart::dynamics::ShapeFrame* ground_plane, bool engine_ground_contacts);
 
 /// DART hands a MeshShape to Bullet as a btGImpactMeshShape but registers no collision
 /// algorithm for it: registers Bullet's GImpact algorithm on @p group's dispatcher and

@@ -40,11 +40,15 @@ class OdeBodies {
   virtual void collide(void* data, dNearCallback* callback) const = 0;
   /// Returns false for a geom the model does not know.
   virtual bool role(dGeomID geom, GeomRole& out) const = 0;
-  /// The convex hulls whose contacts with the ground plane the model computes itself
-  /// (core/hull_contacts.hpp) instead of ODE's convex-plane collider. Default: none (a
+  /// The convex hulls and cylinders whose contacts with the ground plane the model
+  /// computes itself (core/hull_contacts.hpp) instead of ODE's colliders. Default: none (a
   /// user's world keeps ODE's contacts).
   virtual const std::vector<BodyHull>& groundHulls() const {
     static const std::vector<BodyHull> none;
+    return none;
+  }
+  virtual const std::vector<BodyCylinder>& groundCylinders() const {
+    static const std::vector<BodyCylinder> none;
     return none;
   }
 };

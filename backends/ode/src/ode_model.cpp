@@ -68,7 +68,10 @@ class UrdfBodies final : public OdeBodies {
   UrdfBodies(const urdf::RobotDescription& robot, const ModelOptions& options)
       : world_(robot, options.floating_base, options.gravity_W, options.environment,
                options.enforce_joint_limits_in_simulation) {
-    if (options.environment.has_ground) ground_hulls_ = urdf::bodyHulls(robot);
+    if (options.environment.has_ground) {
+      ground_hulls_ = urdf::bodyHulls(robot);
+      ground_cylinders_ = urdf::bodyCylinders(robot);
+    }
   }
   dWorldID world() const override { return world_.world(); }
   dJointGroupID contactGroup() const override { return world_.contactGroup(); }
@@ -89,10 +92,12 @@ class UrdfBodies final : public OdeBodies {
     return true;
   }
   const std::vector<BodyHull>& groundHulls() const override { return ground_hulls_; }
+  const std::vector<BodyCylinder>& groundCylinders() const override { return ground_cylinders_; }
 
  private:
   OdeWorld world_;
   std::vector<BodyHull> ground_hulls_;
+  std::vector<BodyCylinder> ground_cylinders_;
 };
 
 class OdeModel final : public OdeBodyModel {
@@ -301,6 +306,8 @@ class OdeModel final : public OdeBodyModel {
     collide(pass);
     for (const BodyHull& hull : ode_.groundHulls())
       appendHullGroundContacts(hull, bodyPose(hull.body), environment_.ground, out);
+    for (const BodyCylinder& cylinder : ode_.groundCylinders())
+      appendCylinderGroundContacts(cylinder, bodyPose(cylinder.body), environment_.ground, out);
   }
 
   void simulateStep(const Eigen::Ref<const Eigen::VectorXd>& tau_J, double dt_s) override {
@@ -346,9 +353,11 @@ class OdeModel final : public OdeBodyModel {
     const dGeomID env_geom = robot_first ? g2 : g1;
     const GeomRole& robot = robot_first ? r1 : r2;
     const GeomRole& env = robot_first ? r2 : r1;
-    // The hulls' ground contacts come from detectContacts itself (engine-independent).
-    if (!pass.simulate && !ode_.groundHulls().empty() && dGeomGetClass(robot_geom) == dConvexClass &&
-        dGeomGetClass(env_geom) == dPlaneClass)
+    // The hulls' and cylinders' ground contacts come from detectContacts itself
+    // (engine-independent).
+    if (!pass.simulate && dGeomGetClass(env_geom) == dPlaneClass &&
+        ((dGeomGetClass(robot_geom) == dConvexClass && !ode_.groundHulls().empty()) ||
+         (dGeomGetClass(robot_geom) == dCylinderClass && !ode_.groundCylinders().empty())))
       return;
     // dCollide(robot, environment): ODE's normal then points out of the environment into
     // the robot shape, i.e. it pushes the body out, and it is the right normal for a

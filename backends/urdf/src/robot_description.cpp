@@ -295,4 +295,13 @@ std::vector<BodyHull> bodyHulls(const RobotDescription& robot) {
   return hulls;
 }
 
+std::vector<BodyCylinder> bodyCylinders(const RobotDescription& robot) {
+  std::vector<BodyCylinder> cylinders;
+  for (std::size_t l = 0; l < robot.links.size(); ++l)
+    for (const CollisionShapeDesc& shape : robot.links[l].collisions)
+      if (shape.kind == ShapeKind::kCylinder)
+        cylinders.push_back({static_cast<int>(l), shape.X_LS, shape.radius_m, shape.length_m});
+  return cylinders;
+}
+
 }  // namespace dynfilter::urdf

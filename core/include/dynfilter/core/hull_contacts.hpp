@@ -1,12 +1,12 @@
 #pragma once
 /// @file
-/// Contacts of convex collision hulls with the ground plane, computed from the hull's
-/// vertices the same way for every backend.
+/// Contacts of convex collision hulls and cylinders with the ground plane, computed from
+/// their geometry the same way for every backend.
 ///
-/// Collision engines report a hull lying on a plane differently (Bullet keeps four points
-/// per manifold, ODE up to the caller's buffer in its own order), so the virtual links, and
-/// with them the filtered motion, would depend on the engine. Both backends ask this
-/// function instead for their own URDF-built hulls against their own ground.
+/// Collision engines report a hull or a cylinder lying on a plane differently (Bullet keeps
+/// four points per manifold, ODE up to the caller's buffer in its own order), so the virtual
+/// links, and with them the filtered motion, would depend on the engine. Both backends ask
+/// these functions instead for their own URDF-built shapes against their own ground.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -41,5 +41,22 @@ struct BodyHull {
 /// below the plane. Returns the number appended. Never allocates.
 int appendHullGroundContacts(const BodyHull& hull, const Eigen::Isometry3d& X_WB,
                              const GroundPlane& ground, ContactList& out);
+
+/// A collision cylinder fixed to a robot body, its axis along the z of its frame S.
+struct BodyCylinder {
+  int body = -1;                                            ///< robot body index
+  Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();  ///< cylinder frame S in the body frame B
+  double radius_m = 0.0;                                    ///< (m, > 0)
+  double length_m = 0.0;                                    ///< along S's z, centred on its origin (m, > 0)
+};
+
+/// appendHullGroundContacts for a cylinder: of the points of its two rims on or below the
+/// plane, the extreme ones along the same eight directions (exact points of the rims, not of
+/// a polygon; of equally far ones the deepest), each once (points closer than 1e-9 m
+/// merged); at most kMaxHullGroundContacts. A rim level with the plane gives its points
+/// along those directions; a tilted one the ends of its arc below the plane and its deepest
+/// point. Returns the number appended. Never allocates.
+int appendCylinderGroundContacts(const BodyCylinder& cylinder, const Eigen::Isometry3d& X_WB,
+                                 const GroundPlane& ground, ContactList& out);
 
 }  // namespace dynfilter

@@ -135,4 +135,7 @@ ModelInfo makeModelInfo(const RobotDescription& robot, bool floating_base);
 /// for the backends' hull-against-ground contacts (core/hull_contacts.hpp).
 std::vector<BodyHull> bodyHulls(const RobotDescription& robot);
 
+/// Every cylinder collision shape of @p robot with its link, for the same purpose.
+std::vector<BodyCylinder> bodyCylinders(const RobotDescription& robot);
+
 }  // namespace dynfilter::urdf
