@@ -165,7 +165,7 @@ TEST_P(Contacts, MeshSolesStandAtTheirHullsBottomVertices) {
 }
 
 // The hulls' ground contacts come from their vertices in both backends
-// (core/hull_contacts.hpp): DART and ODE give the same points, pose by pose. Before, Bullet
+// (core/ground_contacts.hpp): DART and ODE give the same points, pose by pose. Before, Bullet
 // kept 4 points per hull and ODE up to 16 in its own choice.
 TEST(HullGroundContacts, DartAndOdeGiveTheSamePointsOnLevelAndSlopedGround) {
   const urdf::RobotDescription robot =

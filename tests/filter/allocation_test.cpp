@@ -17,7 +17,7 @@
 
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/dynamics_simulator.hpp"
-#include "dynfilter/core/hull_contacts.hpp"
+#include "dynfilter/core/ground_contacts.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"

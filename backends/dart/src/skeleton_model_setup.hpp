@@ -12,7 +12,7 @@
 #include <dart/dynamics/ShapeFrame.hpp>
 
 #include "dart_skeleton_builder.hpp"
-#include "dynfilter/core/hull_contacts.hpp"
+#include "dynfilter/core/ground_contacts.hpp"
 #include "dynfilter/core/model_info.hpp"
 #include "dynfilter/dart/skeleton_model.hpp"
 
@@ -45,7 +45,7 @@ struct SkeletonModelSetup {
   const dart::dynamics::ShapeFrame* ground_slab = nullptr;
   const dart::dynamics::ShapeFrame* ground_plane = nullptr;
   /// For a URDF-built world with a ground: detectContacts computes the ground contacts of
-  /// the hulls and cylinders below from their geometry (core/hull_contacts.hpp), the same
+  /// the hulls and cylinders below from their geometry (core/ground_contacts.hpp), the same
   /// way as the ODE backend. False (and both empty) for a user's world.
   bool own_ground_contacts = false;
   std::vector<BodyHull> ground_hulls;

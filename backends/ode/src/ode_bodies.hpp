@@ -9,7 +9,7 @@
 #include <ode/ode.h>
 
 #include "dynfilter/core/environment.hpp"
-#include "dynfilter/core/hull_contacts.hpp"
+#include "dynfilter/core/ground_contacts.hpp"
 #include "dynfilter/core/model_info.hpp"
 #include "dynfilter/ode/body_model.hpp"
 #include "ode_world.hpp"
@@ -41,7 +41,7 @@ class OdeBodies {
   /// Returns false for a geom the model does not know.
   virtual bool role(dGeomID geom, GeomRole& out) const = 0;
   /// The convex hulls and cylinders whose contacts with the ground plane the model
-  /// computes itself (core/hull_contacts.hpp) instead of ODE's colliders. Default: none (a
+  /// computes itself (core/ground_contacts.hpp) instead of ODE's colliders. Default: none (a
   /// user's world keeps ODE's contacts).
   virtual const std::vector<BodyHull>& groundHulls() const {
     static const std::vector<BodyHull> none;

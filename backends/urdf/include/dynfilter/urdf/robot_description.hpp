@@ -10,7 +10,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "dynfilter/core/hull_contacts.hpp"
+#include "dynfilter/core/ground_contacts.hpp"
 #include "dynfilter/core/model_info.hpp"
 
 namespace dynfilter::urdf {
@@ -132,7 +132,7 @@ void lockJoints(RobotDescription& robot, const std::vector<JointLock>& locks);
 ModelInfo makeModelInfo(const RobotDescription& robot, bool floating_base);
 
 /// Every convex-hull collision shape of @p robot with its link (body index = link index),
-/// for the backends' hull-against-ground contacts (core/hull_contacts.hpp).
+/// for the backends' hull-against-ground contacts (core/ground_contacts.hpp).
 std::vector<BodyHull> bodyHulls(const RobotDescription& robot);
 
 /// Every cylinder collision shape of @p robot with its link, for the same purpose.

@@ -1,4 +1,4 @@
-#include "dynfilter/core/hull_contacts.hpp"
+#include "dynfilter/core/ground_contacts.hpp"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-// Hull-against-ground contacts from the hull's vertices (core/hull_contacts.hpp).
+// Hull-against-ground contacts from the hull's vertices (core/ground_contacts.hpp).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "dynfilter/core/hull_contacts.hpp"
+#include "dynfilter/core/ground_contacts.hpp"
 #include "dynfilter/core/lie_group.hpp"
 
 namespace dynfilter {
