@@ -8,7 +8,7 @@ Checks:
   refused with the file, the line and the reason below (exit 2);
 - the engines' own simulators step the robots with mimic joints (DART aborted on its mimic
   motor constraint for Talos and Tiago Pro) — exit 0 (stood) or 3 (fell), never a signal;
-- dynfilter-crosscheck passes on every loadable description but the known ones below: DART
+- dynfilter-crosscheck passes on every loadable description: DART
   and ODE agree on A, b, J, J̇·v and forward dynamics, and on the points where the robot
   standing 1 mm deep touches the ground (mesh hulls included: their ground contacts come
   from the hull's vertices in both backends, a cylinder's from its rims).
@@ -27,11 +27,6 @@ REFUSED = {
     "romeo.urdf": "moves no mass",
     "romeo_laas_small.urdf": "is not positive semi-definite",
     "ur3.urdf": "no <link> elements",
-}
-# dynfilter-crosscheck fails, known and not fixed: (file name, why).
-CROSSCHECK_KNOWN = {
-    # DART's own simulator runs away on light links in the check's passive trajectory.
-    "baxter.urdf": "DART trajectory runs away", "icub.urdf": "DART trajectory runs away",
 }
 # Described with their mimic joints, simulated by each engine for 50 ms.
 SIMULATED = ["talos_full_v2.urdf", "tiago_pro.urdf"]
@@ -76,10 +71,7 @@ def main():
         if args.crosscheck and name not in REFUSED:
             p = subprocess.run([args.crosscheck, "--model", urdf, "--states", "3"],
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=300)
-            if name in CROSSCHECK_KNOWN:
-                if p.returncode == 0:
-                    print(f"  note: {name} now passes the crosscheck ({CROSSCHECK_KNOWN[name]} was known)")
-            elif p.returncode != 0:
+            if p.returncode != 0:
                 bad = [l.strip() for l in p.stdout.splitlines() if l.rstrip().endswith("FAIL")]
                 failures.append(f"crosscheck {os.path.relpath(urdf, roots[0])}: exit {p.returncode}: "
                                 f"{bad or p.stdout.strip().splitlines()[-1:]}")
