@@ -160,4 +160,14 @@ int appendCylinderGroundContacts(const BodyCylinder& cylinder, const Eigen::Isom
   return added;
 }
 
+int appendGroundContacts(const GroundContactShapes& shapes, const IDynamicsModel& model,
+                         const GroundPlane& ground, ContactList& out) {
+  int added = 0;
+  for (const BodyHull& hull : shapes.hulls)
+    added += appendHullGroundContacts(hull, model.bodyPose(hull.body), ground, out);
+  for (const BodyCylinder& cylinder : shapes.cylinders)
+    added += appendCylinderGroundContacts(cylinder, model.bodyPose(cylinder.body), ground, out);
+  return added;
+}
+
 }  // namespace dynfilter

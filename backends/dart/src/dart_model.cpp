@@ -55,11 +55,7 @@ std::unique_ptr<IDynamicsModel> makeDartModel(const urdf::RobotDescription& robo
   setup.has_mimic = built.has_mimic;
   setup.ground_slab = env.ground_slab;
   setup.ground_plane = env.ground_plane;
-  if (options.environment.has_ground) {
-    setup.own_ground_contacts = true;
-    setup.ground_hulls = urdf::bodyHulls(robot);
-    setup.ground_cylinders = urdf::bodyCylinders(robot);
-  }
+  if (options.environment.has_ground) setup.ground_shapes = urdf::groundContactShapes(robot);
   setup.mass_matrix = mass_matrix;
 
   auto model = makeSkeletonModel(std::move(setup));

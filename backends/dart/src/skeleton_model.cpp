@@ -117,7 +117,7 @@ class DartSkeletonModel final : public SkeletonModel {
     for (std::size_t k = 0; k < s_.world->getNumSkeletons(); ++k)
       collision_group_->subscribeTo(s_.world->getSkeleton(k));
     collision_filter_ = makeRobotVersusOthersFilter(s_.skeleton.get(), s_.ground_slab,
-                                                    s_.ground_plane, !s_.own_ground_contacts);
+                                                    s_.ground_plane, s_.ground_shapes.empty());
     if (s_.ground_plane != nullptr) enableHullContacts(collision_group_.get());
     if (!pullSkeletonState())
       throw InvalidStateError("skeleton \"" + s_.skeleton->getName() +
@@ -366,10 +366,7 @@ class DartSkeletonModel final : public SkeletonModel {
       cand.p_BC = bodyPose(cand.body).inverse() * cand.p_WC;
       out.push(cand);
     }
-    for (const BodyHull& hull : s_.ground_hulls)
-      appendHullGroundContacts(hull, bodyPose(hull.body), s_.environment.ground, out);
-    for (const BodyCylinder& cylinder : s_.ground_cylinders)
-      appendCylinderGroundContacts(cylinder, bodyPose(cylinder.body), s_.environment.ground, out);
+    appendGroundContacts(s_.ground_shapes, *this, s_.environment.ground, out);
   }
 
   void simulateStep(const Eigen::Ref<const Eigen::VectorXd>& tau_J, double dt_s) override {

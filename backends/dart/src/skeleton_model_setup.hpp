@@ -44,12 +44,11 @@ struct SkeletonModelSetup {
   /// every other shape only the slab.
   const dart::dynamics::ShapeFrame* ground_slab = nullptr;
   const dart::dynamics::ShapeFrame* ground_plane = nullptr;
-  /// For a URDF-built world with a ground: detectContacts computes the ground contacts of
-  /// the hulls and cylinders below from their geometry (core/ground_contacts.hpp), the same
-  /// way as the ODE backend. False (and both empty) for a user's world.
-  bool own_ground_contacts = false;
-  std::vector<BodyHull> ground_hulls;
-  std::vector<BodyCylinder> ground_cylinders;
+  /// For a URDF-built world with a ground: the hulls and cylinders whose ground contacts
+  /// detectContacts computes from their geometry (core/ground_contacts.hpp), the same way
+  /// as the ODE backend; the query filter then leaves their engine contacts out. Empty for
+  /// a user's world.
+  GroundContactShapes ground_shapes;
   DartMassMatrix mass_matrix = DartMassMatrix::kBodySum;
 };
 

@@ -43,12 +43,8 @@ class OdeBodies {
   /// The convex hulls and cylinders whose contacts with the ground plane the model
   /// computes itself (core/ground_contacts.hpp) instead of ODE's colliders. Default: none (a
   /// user's world keeps ODE's contacts).
-  virtual const std::vector<BodyHull>& groundHulls() const {
-    static const std::vector<BodyHull> none;
-    return none;
-  }
-  virtual const std::vector<BodyCylinder>& groundCylinders() const {
-    static const std::vector<BodyCylinder> none;
+  virtual const GroundContactShapes& groundShapes() const {
+    static const GroundContactShapes none;
     return none;
   }
 };

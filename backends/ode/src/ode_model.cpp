@@ -68,10 +68,7 @@ class UrdfBodies final : public OdeBodies {
   UrdfBodies(const urdf::RobotDescription& robot, const ModelOptions& options)
       : world_(robot, options.floating_base, options.gravity_W, options.environment,
                options.enforce_joint_limits_in_simulation) {
-    if (options.environment.has_ground) {
-      ground_hulls_ = urdf::bodyHulls(robot);
-      ground_cylinders_ = urdf::bodyCylinders(robot);
-    }
+    if (options.environment.has_ground) ground_shapes_ = urdf::groundContactShapes(robot);
   }
   dWorldID world() const override { return world_.world(); }
   dJointGroupID contactGroup() const override { return world_.contactGroup(); }
@@ -91,13 +88,11 @@ class UrdfBodies final : public OdeBodies {
     out.friction = tag->friction;
     return true;
   }
-  const std::vector<BodyHull>& groundHulls() const override { return ground_hulls_; }
-  const std::vector<BodyCylinder>& groundCylinders() const override { return ground_cylinders_; }
+  const GroundContactShapes& groundShapes() const override { return ground_shapes_; }
 
  private:
   OdeWorld world_;
-  std::vector<BodyHull> ground_hulls_;
-  std::vector<BodyCylinder> ground_cylinders_;
+  GroundContactShapes ground_shapes_;
 };
 
 class OdeModel final : public OdeBodyModel {
@@ -304,10 +299,7 @@ class OdeModel final : public OdeBodyModel {
     pass.model = this;
     pass.out = &out;
     collide(pass);
-    for (const BodyHull& hull : ode_.groundHulls())
-      appendHullGroundContacts(hull, bodyPose(hull.body), environment_.ground, out);
-    for (const BodyCylinder& cylinder : ode_.groundCylinders())
-      appendCylinderGroundContacts(cylinder, bodyPose(cylinder.body), environment_.ground, out);
+    appendGroundContacts(ode_.groundShapes(), *this, environment_.ground, out);
   }
 
   void simulateStep(const Eigen::Ref<const Eigen::VectorXd>& tau_J, double dt_s) override {
@@ -355,9 +347,8 @@ class OdeModel final : public OdeBodyModel {
     const GeomRole& env = robot_first ? r2 : r1;
     // The hulls' and cylinders' ground contacts come from detectContacts itself
     // (engine-independent).
-    if (!pass.simulate && dGeomGetClass(env_geom) == dPlaneClass &&
-        ((dGeomGetClass(robot_geom) == dConvexClass && !ode_.groundHulls().empty()) ||
-         (dGeomGetClass(robot_geom) == dCylinderClass && !ode_.groundCylinders().empty())))
+    if (!pass.simulate && !ode_.groundShapes().empty() && dGeomGetClass(env_geom) == dPlaneClass &&
+        (dGeomGetClass(robot_geom) == dConvexClass || dGeomGetClass(robot_geom) == dCylinderClass))
       return;
     // dCollide(robot, environment): ODE's normal then points out of the environment into
     // the robot shape, i.e. it pushes the body out, and it is the right normal for a

@@ -282,26 +282,21 @@ void lockJoints(RobotDescription& robot, const std::vector<JointLock>& locks) {
   }
 }
 
-std::vector<BodyHull> bodyHulls(const RobotDescription& robot) {
-  std::vector<BodyHull> hulls;
+GroundContactShapes groundContactShapes(const RobotDescription& robot) {
+  GroundContactShapes shapes;
   for (std::size_t l = 0; l < robot.links.size(); ++l)
     for (const CollisionShapeDesc& shape : robot.links[l].collisions) {
-      if (shape.kind != ShapeKind::kConvexHull) continue;
-      Eigen::Matrix3Xd p_SV(3, static_cast<Eigen::Index>(shape.hull.vertices_S.size()));
-      for (std::size_t i = 0; i < shape.hull.vertices_S.size(); ++i)
-        p_SV.col(static_cast<Eigen::Index>(i)) = shape.hull.vertices_S[i];
-      hulls.push_back(BodyHull::make(static_cast<int>(l), shape.X_LS, std::move(p_SV)));
+      const int body = static_cast<int>(l);
+      if (shape.kind == ShapeKind::kCylinder) {
+        shapes.cylinders.push_back({body, shape.X_LS, shape.radius_m, shape.length_m});
+      } else if (shape.kind == ShapeKind::kConvexHull) {
+        Eigen::Matrix3Xd p_SV(3, static_cast<Eigen::Index>(shape.hull.vertices_S.size()));
+        for (std::size_t i = 0; i < shape.hull.vertices_S.size(); ++i)
+          p_SV.col(static_cast<Eigen::Index>(i)) = shape.hull.vertices_S[i];
+        shapes.hulls.push_back(BodyHull::make(body, shape.X_LS, std::move(p_SV)));
+      }
     }
-  return hulls;
-}
-
-std::vector<BodyCylinder> bodyCylinders(const RobotDescription& robot) {
-  std::vector<BodyCylinder> cylinders;
-  for (std::size_t l = 0; l < robot.links.size(); ++l)
-    for (const CollisionShapeDesc& shape : robot.links[l].collisions)
-      if (shape.kind == ShapeKind::kCylinder)
-        cylinders.push_back({static_cast<int>(l), shape.X_LS, shape.radius_m, shape.length_m});
-  return cylinders;
+  return shapes;
 }
 
 }  // namespace dynfilter::urdf

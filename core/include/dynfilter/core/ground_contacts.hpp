@@ -8,10 +8,13 @@
 /// links, and with them the filtered motion, would depend on the engine. Both backends ask
 /// these functions instead for their own URDF-built shapes against their own ground.
 
+#include <vector>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include "dynfilter/core/contact.hpp"
+#include "dynfilter/core/dynamics_model.hpp"
 #include "dynfilter/core/environment.hpp"
 
 namespace dynfilter {
@@ -58,5 +61,19 @@ struct BodyCylinder {
 /// point. Returns the number appended. Never allocates.
 int appendCylinderGroundContacts(const BodyCylinder& cylinder, const Eigen::Isometry3d& X_WB,
                                  const GroundPlane& ground, ContactList& out);
+
+/// The shapes of a robot whose ground contacts a backend computes with the functions above
+/// instead of its collision engine. Empty for a user's world, which keeps its engine's
+/// contacts.
+struct GroundContactShapes {
+  std::vector<BodyHull> hulls;
+  std::vector<BodyCylinder> cylinders;
+  bool empty() const { return hulls.empty() && cylinders.empty(); }
+};
+
+/// Appends to @p out the ground contacts of every shape of @p shapes, each posed by
+/// @p model's current body pose. Returns the number appended. Never allocates.
+int appendGroundContacts(const GroundContactShapes& shapes, const IDynamicsModel& model,
+                         const GroundPlane& ground, ContactList& out);
 
 }  // namespace dynfilter

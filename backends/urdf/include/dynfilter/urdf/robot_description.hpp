@@ -131,11 +131,8 @@ void lockJoints(RobotDescription& robot, const std::vector<JointLock>& locks);
 /// are the moving joints in file order, bodies all links in file order.
 ModelInfo makeModelInfo(const RobotDescription& robot, bool floating_base);
 
-/// Every convex-hull collision shape of @p robot with its link (body index = link index),
-/// for the backends' hull-against-ground contacts (core/ground_contacts.hpp).
-std::vector<BodyHull> bodyHulls(const RobotDescription& robot);
-
-/// Every cylinder collision shape of @p robot with its link, for the same purpose.
-std::vector<BodyCylinder> bodyCylinders(const RobotDescription& robot);
+/// Every convex-hull and cylinder collision shape of @p robot with its link (body index =
+/// link index), for the backends' ground contacts (core/ground_contacts.hpp).
+GroundContactShapes groundContactShapes(const RobotDescription& robot);
 
 }  // namespace dynfilter::urdf
