@@ -1,6 +1,6 @@
 // Inertias as real descriptions write them, in both engines: a singular 1 µg root welded to
 // the trunk (Go1, B1, ANYmal, HyQ) and a point mass with no rotational inertia on a hinge
-// (iCub). Both load, the two backends give the same A and b, and each engine's own
+// (iCub), and a pair of joints that together move no inertia (iCub's neck: warned about). Both load, the two backends give the same A and b, and each engine's own
 // simulator steps them (ODE's needs a positive-definite inertia per body: the ODE backend
 // lifts a singular one to a token there).
 #include <string>
@@ -69,6 +69,69 @@ TEST_P(InertiaEdgeCases, BothBackendsAgreeAndBothEnginesStep) {
       EXPECT_GT(m->v().cwiseAbs().maxCoeff(), 0.1) << m->backendName() << ": the bob swings";
     }
   }
+}
+
+// A point-mass head on a two-axis neck whose axes meet at the origin, iCub's case: each
+// joint alone moves the head (validateForDynamics passes), but the rotation about the line
+// through the origin and the head's centre of mass, ω ∝ p = (0.02, 0, 0.1), moves nothing:
+// yaw (z) and roll (x) rates in the ratio 0.1 : 0.02.
+std::string pointMassNeck(const char* head_inertia) {
+  return std::string(R"(<?xml version="1.0"?>
+<robot name="neck">
+  <link name="trunk">
+    <inertial><mass value="5"/><inertia ixx="0.05" iyy="0.04" izz="0.03" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="neck_yaw" type="revolute">
+    <parent link="trunk"/><child link="neck"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="10" velocity="5"/>
+  </joint>
+  <link name="neck"/>
+  <joint name="neck_roll" type="revolute">
+    <parent link="neck"/><child link="head"/><axis xyz="1 0 0"/>
+    <limit lower="-1" upper="1" effort="10" velocity="5"/>
+  </joint>
+  <link name="head">
+    <inertial><origin xyz="0.02 0 0.1"/><mass value="1.3"/>)") +
+         head_inertia + R"(</inertial>
+  </link>
+</robot>
+)";
+}
+
+TEST(SingularMassMatrix, APointMassHeadOnMeetingAxesIsNamedWithItsJoints) {
+  const urdf::RobotDescription robot =
+      urdf::loadUrdfString(pointMassNeck(R"(<inertia ixx="0" iyy="0" izz="0" ixy="0" ixz="0" iyz="0"/>)"), "neck.urdf");
+  ASSERT_EQ(robot.warnings.size(), 1u);
+  const std::string& w = robot.warnings[0];
+  EXPECT_NE(w.find("singular at q = 0"), std::string::npos) << w;
+  EXPECT_NE(w.find("\"neck_yaw\" (+0.98)"), std::string::npos) << w;  // 0.1 / |(0.1, 0.02)|
+  EXPECT_NE(w.find("\"neck_roll\" (+0.20)"), std::string::npos) << w;
+  // The backends load it (fixed base), and their A is singular there as the warning says.
+  ModelOptions options;
+  options.floating_base = false;
+  options.environment.has_ground = false;
+  for (const char* backend : {"dart", "ode"}) {
+    auto model = test::makeModel(backend, robot, options);
+    Eigen::MatrixXd A(2, 2);
+    model->setState(Eigen::VectorXd::Zero(2), Eigen::VectorXd::Zero(2));
+    model->massMatrix(A);
+    EXPECT_LT(std::abs(A.determinant()), 1e-12 * A.squaredNorm()) << backend;
+  }
+}
+
+TEST(SingularMassMatrix, AHeadWithRotationalInertiaOrTheHumanFigureIsNotWarnedAbout) {
+  const urdf::RobotDescription robot =
+      urdf::loadUrdfString(pointMassNeck(R"(<inertia ixx="0.004" iyy="0.004" izz="0.003" ixy="0" ixz="0" iyz="0"/>)"),
+                           "neck.urdf");
+  EXPECT_TRUE(robot.warnings.empty()) << robot.warnings.front();
+  const urdf::RobotDescription figure = urdf::loadUrdfFile(test::humanFigurePath());
+  EXPECT_TRUE(figure.warnings.empty()) << figure.warnings.front();
+  // Locking one of the neck's joints removes the singular motion.
+  urdf::UrdfLoadOptions lock;
+  lock.lock_joints = {"neck_yaw"};
+  const urdf::RobotDescription locked = urdf::loadUrdfString(
+      pointMassNeck(R"(<inertia ixx="0" iyy="0" izz="0" ixy="0" ixz="0" iyz="0"/>)"), "neck.urdf", lock);
+  EXPECT_TRUE(locked.warnings.empty()) << locked.warnings.front();
 }
 
 INSTANTIATE_TEST_SUITE_P(Base, InertiaEdgeCases, testing::Values(false, true),

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <utility>
 
 #include <Eigen/Eigenvalues>
@@ -192,6 +193,74 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
                        "the floating base carries no mass or no rotational inertia (the whole "
                        "model is massless)");
   }
+}
+
+bool warnSingularMassMatrix(RobotDescription& robot) {
+  const int nj = static_cast<int>(robot.moving_joints.size());
+  if (nj == 0) return false;
+  const std::vector<int> order = robot.linksParentFirst();
+  std::vector<Eigen::Isometry3d> X_RL(robot.links.size(), Eigen::Isometry3d::Identity());
+  // Twists (ω; v at the root origin, root frame) of each link per unit coordinate rate.
+  std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>> T(robot.links.size(),
+                                                           Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, nj));
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(nj, nj);
+  for (const int l : order) {
+    const auto li = static_cast<std::size_t>(l);
+    const int pj = robot.links[li].parent_joint;
+    if (pj >= 0) {
+      const JointDesc& j = robot.joints[static_cast<std::size_t>(pj)];
+      const auto parent = static_cast<std::size_t>(j.parent_link);
+      X_RL[li] = X_RL[parent] * j.X_PJ;
+      T[li] = T[parent];
+      const JointDesc& driver = j.mimics() ? robot.joints[static_cast<std::size_t>(j.mimic_leader)] : j;
+      if (j.moving() && driver.coordinate >= 0) {
+        const double k = j.mimics() ? j.mimic_multiplier : 1.0;
+        const Eigen::Vector3d a = X_RL[li].linear() * j.axis_J, o = X_RL[li].translation();
+        Eigen::Matrix<double, 6, 1> s;
+        if (j.type == JointType::kPrismatic) s << Eigen::Vector3d::Zero(), a;
+        else s << a, o.cross(a);
+        T[li].col(driver.coordinate) += k * s;
+      }
+    }
+    const InertialDesc& in = robot.links[li].inertial;
+    if (!(in.mass_kg > 0.0)) continue;
+    // 2 × kinetic energy of the link for twist (ω, v): m|v + ω × c|² + ωᵀ I_c ω.
+    const Eigen::Vector3d c = X_RL[li] * in.p_LCom;
+    const Eigen::Matrix3d I_c = X_RL[li].linear() * in.I_Com_L * X_RL[li].linear().transpose();
+    Eigen::Matrix3d c_hat;
+    c_hat << 0, -c.z(), c.y(), c.z(), 0, -c.x(), -c.y(), c.x(), 0;
+    Eigen::Matrix<double, 3, Eigen::Dynamic> v_c = T[li].bottomRows<3>() - c_hat * T[li].topRows<3>();
+    A.noalias() += in.mass_kg * v_c.transpose() * v_c;
+    A.noalias() += T[li].topRows<3>().transpose() * I_c * T[li].topRows<3>();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(A);
+  const Eigen::VectorXd& lambda = eig.eigenvalues();
+  const double largest = lambda[nj - 1];
+  bool warned = false;
+  for (int e = 0; e < nj && lambda[e] <= 1e-9 * largest; ++e) {
+    Eigen::VectorXd mode = eig.eigenvectors().col(e);
+    Eigen::Index largest_entry = 0;
+    mode.cwiseAbs().maxCoeff(&largest_entry);
+    if (mode[largest_entry] < 0.0) mode = -mode;  // the sign of its largest entry: +
+    std::string joints;
+    for (int c = 0; c < nj; ++c) {
+      if (std::abs(mode[c]) < 0.1) continue;
+      char weight[32];
+      std::snprintf(weight, sizeof weight, " (%+.2f)", mode[c]);
+      joints += (joints.empty() ? "\"" : ", \"") +
+                robot.joints[static_cast<std::size_t>(robot.moving_joints[static_cast<std::size_t>(c)])].name +
+                "\"" + weight;
+    }
+    char numbers[96];
+    std::snprintf(numbers, sizeof numbers, "%.2g against a largest %.3g", lambda[e], largest);
+    robot.warnings.push_back(robot.source + ": the mass matrix is singular at q = 0: joint(s) " + joints +
+                             " together move no inertia (eigenvalue " + numbers +
+                             "); forward simulation near this pose is ill-posed in either engine "
+                             "(the joints spin up without bound): give the links they move a "
+                             "rotational inertia, or lock one of them");
+    warned = true;
+  }
+  return warned;
 }
 
 ModelInfo makeModelInfo(const RobotDescription& robot, bool floating_base) {

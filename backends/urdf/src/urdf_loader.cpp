@@ -459,6 +459,7 @@ RobotDescription loadUrdfString(const std::string& xml, const std::string& sourc
   RobotDescription robot =
       buildDescription(*model, std::move(index), source_label, options, base_directory);
   if (!options.lock_joints.empty()) lockJoints(robot, resolveJointLocks(robot, options.lock_joints));
+  warnSingularMassMatrix(robot);
   return robot;
 }
 

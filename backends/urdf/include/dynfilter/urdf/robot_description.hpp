@@ -117,6 +117,15 @@ struct RobotDescription {
 /// (the joint whose motion moves no mass) and reason.
 void validateForDynamics(const RobotDescription& robot, bool floating_base);
 
+/// Appends to @p robot's warnings a description of the joint motions that move (almost) no
+/// inertia at q = 0: eigenvectors of the fixed-base mass matrix A_JJ(0) whose eigenvalue is
+/// at most 1e-9 of the largest, with the joints that take part in them. Such a model passes
+/// validateForDynamics (each joint alone moves mass) but its forward dynamics is singular
+/// near that pose, e.g. a point-mass head on a neck whose axes meet at its centre of mass:
+/// a simulator (either engine) spins those joints up without bound. Returns whether it
+/// warned.
+bool warnSingularMassMatrix(RobotDescription& robot);
+
 /// Turns the named joints into fixed joints at the given position (rad or m): the child is
 /// welded at X_PJ · motion(position). Mimic followers of a locked joint are locked at
 /// their own k · position + c. Coordinates are renumbered. Throws ModelError on an unknown
