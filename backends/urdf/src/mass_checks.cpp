@@ -10,6 +10,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "dynfilter/core/errors.hpp"
+#include "dynfilter/core/lie_group.hpp"
 
 namespace dynfilter::urdf {
 
@@ -49,6 +50,18 @@ struct Composite {
 // Smallest moment of inertia (kg m²) or mass (kg) a joint's motion must move.
 constexpr double kMinMovedInertia = 1e-12;
 
+// Every link's pose in the root frame R at q = 0; @p order is robot.linksParentFirst().
+std::vector<Eigen::Isometry3d> linkPosesAtZero(const RobotDescription& robot, const std::vector<int>& order) {
+  std::vector<Eigen::Isometry3d> X_RL(robot.links.size(), Eigen::Isometry3d::Identity());
+  for (const int l : order) {
+    const int pj = robot.links[static_cast<std::size_t>(l)].parent_joint;
+    if (pj < 0) continue;
+    const JointDesc& j = robot.joints[static_cast<std::size_t>(pj)];
+    X_RL[static_cast<std::size_t>(l)] = X_RL[static_cast<std::size_t>(j.parent_link)] * j.X_PJ;
+  }
+  return X_RL;
+}
+
 }  // namespace
 
 void validateForDynamics(const RobotDescription& robot, bool floating_base) {
@@ -66,13 +79,7 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
   // root frame, per joint over its subtree; an independent joint passes when it or one of
   // its mimic followers moves mass.
   const std::vector<int> order = robot.linksParentFirst();
-  std::vector<Eigen::Isometry3d> X_RL(robot.links.size(), Eigen::Isometry3d::Identity());
-  for (const int l : order) {
-    const int pj = robot.links[static_cast<std::size_t>(l)].parent_joint;
-    if (pj < 0) continue;
-    const JointDesc& j = robot.joints[static_cast<std::size_t>(pj)];
-    X_RL[static_cast<std::size_t>(l)] = X_RL[static_cast<std::size_t>(j.parent_link)] * j.X_PJ;
-  }
+  const std::vector<Eigen::Isometry3d> X_RL = linkPosesAtZero(robot, order);
   // Links welded by fixed joints move as one rigid body, and both backends lump them: the
   // body's inertia has to be physical, not each link's. Robots ship dummy links (a 1e-6 kg
   // root with a singular inertia welded to the trunk, point-mass sensor frames) that only
@@ -163,7 +170,7 @@ bool warnSingularMassMatrix(RobotDescription& robot) {
   const int nj = static_cast<int>(robot.moving_joints.size());
   if (nj == 0) return false;
   const std::vector<int> order = robot.linksParentFirst();
-  std::vector<Eigen::Isometry3d> X_RL(robot.links.size(), Eigen::Isometry3d::Identity());
+  const std::vector<Eigen::Isometry3d> X_RL = linkPosesAtZero(robot, order);
   // Twists (ω; v at the root origin, root frame) of each link per unit coordinate rate.
   std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>> T(robot.links.size(),
                                                            Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, nj));
@@ -173,9 +180,7 @@ bool warnSingularMassMatrix(RobotDescription& robot) {
     const int pj = robot.links[li].parent_joint;
     if (pj >= 0) {
       const JointDesc& j = robot.joints[static_cast<std::size_t>(pj)];
-      const auto parent = static_cast<std::size_t>(j.parent_link);
-      X_RL[li] = X_RL[parent] * j.X_PJ;
-      T[li] = T[parent];
+      T[li] = T[static_cast<std::size_t>(j.parent_link)];
       const JointDesc& driver = j.mimics() ? robot.joints[static_cast<std::size_t>(j.mimic_leader)] : j;
       if (j.moving() && driver.coordinate >= 0) {
         const double k = j.mimics() ? j.mimic_multiplier : 1.0;
@@ -191,9 +196,7 @@ bool warnSingularMassMatrix(RobotDescription& robot) {
     // 2 × kinetic energy of the link for twist (ω, v): m|v + ω × c|² + ωᵀ I_c ω.
     const Eigen::Vector3d c = X_RL[li] * in.p_LCom;
     const Eigen::Matrix3d I_c = X_RL[li].linear() * in.I_Com_L * X_RL[li].linear().transpose();
-    Eigen::Matrix3d c_hat;
-    c_hat << 0, -c.z(), c.y(), c.z(), 0, -c.x(), -c.y(), c.x(), 0;
-    Eigen::Matrix<double, 3, Eigen::Dynamic> v_c = T[li].bottomRows<3>() - c_hat * T[li].topRows<3>();
+    const Eigen::Matrix<double, 3, Eigen::Dynamic> v_c = T[li].bottomRows<3>() - skew(c) * T[li].topRows<3>();
     A.noalias() += in.mass_kg * v_c.transpose() * v_c;
     A.noalias() += T[li].topRows<3>().transpose() * I_c * T[li].topRows<3>();
   }
