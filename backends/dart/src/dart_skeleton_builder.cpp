@@ -18,6 +18,7 @@
 #include <assimp/scene.h>
 
 #include "dynfilter/core/contact.hpp"
+#include "dynfilter/urdf/rigid_mass.hpp"
 
 namespace dynfilter::dart_backend {
 namespace {
@@ -115,36 +116,13 @@ dart::dynamics::ShapeNode* addCollisionShape(BodyNode* body, const ShapePtr& sha
   return node;
 }
 
-// Sums rigidly attached mass properties in one body frame N.
-struct MassAccumulator {
-  double mass_kg = 0.0;
-  Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();  // Σ m c_N
-  Eigen::Matrix3d I_origin_N = Eigen::Matrix3d::Zero();    // about N's origin
-
-  void add(const urdf::InertialDesc& in, const Eigen::Isometry3d& X_NL) {
-    if (in.mass_kg <= 0.0) return;
-    const Eigen::Vector3d c_N = X_NL * in.p_LCom;
-    const Eigen::Matrix3d R = X_NL.linear();
-    mass_kg += in.mass_kg;
-    first_moment += in.mass_kg * c_N;
-    I_origin_N += R * in.I_Com_L * R.transpose() +
-                  in.mass_kg * (c_N.squaredNorm() * Eigen::Matrix3d::Identity() - c_N * c_N.transpose());
-  }
-  dart::dynamics::Inertia inertia() const {
-    const Eigen::Vector3d c = first_moment / mass_kg;
-    const Eigen::Matrix3d I_com =
-        I_origin_N - mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
-    return dart::dynamics::Inertia(mass_kg, c, I_com);
-  }
-};
-
 }  // namespace
 
 BuiltRobot buildRobotSkeleton(const urdf::RobotDescription& robot, bool floating_base) {
   BuiltRobot built;
   built.skeleton = dart::dynamics::Skeleton::create(robot.name);
   built.links.assign(robot.links.size(), LinkFrame{});
-  std::vector<MassAccumulator> lumped(robot.links.size());
+  std::vector<urdf::RigidMass> lumped(robot.links.size());
 
   for (const int link_index : robot.linksParentFirst()) {
     const urdf::LinkDesc& link = robot.links[link_index];
@@ -205,7 +183,7 @@ BuiltRobot buildRobotSkeleton(const urdf::RobotDescription& robot, bool floating
     // articulated inertias of the bodies beyond them keep A positive definite, which
     // validateForDynamics checks joint by joint.
     if (lumped[k].mass_kg > 0.0) {
-      node->setInertia(lumped[k].inertia());
+      node->setInertia(dart::dynamics::Inertia(lumped[k].mass_kg, lumped[k].p_FCom(), lumped[k].I_Com_F()));
     } else {
       // DART warns on std::cerr about every zero mass; this one is intended.
       std::streambuf* previous = std::cerr.rdbuf(nullptr);

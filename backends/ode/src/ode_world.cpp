@@ -8,6 +8,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "dynfilter/core/errors.hpp"
+#include "dynfilter/urdf/rigid_mass.hpp"
 
 namespace dynfilter::ode_backend {
 namespace {
@@ -15,39 +16,6 @@ namespace {
 /// Smallest principal moment (kg m²) an ODE body is given in ODE's own stepper (dMass
 /// must be positive definite); the analytic queries take the lift off (OdeNode).
 constexpr double kTokenInertia = 1e-9;
-
-/// Lumped mass properties of the links welded into one node, in the node frame N.
-struct LumpedMass {
-  double mass_kg = 0.0;
-  Eigen::Vector3d p_NCom = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d I_Com_N = Eigen::Matrix3d::Zero();
-};
-
-/// Combines (link inertial, X_NL) pairs: CoM first, then every inertia shifted to that CoM
-/// with the parallel-axis theorem (no large cancelling terms about N's origin).
-LumpedMass lump(const std::vector<const urdf::InertialDesc*>& inertials,
-                const std::vector<Eigen::Isometry3d>& X_NL) {
-  LumpedMass out;
-  Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < inertials.size(); ++i) {
-    const urdf::InertialDesc& in = *inertials[i];
-    if (!(in.mass_kg > 0.0)) continue;
-    out.mass_kg += in.mass_kg;
-    first_moment += in.mass_kg * (X_NL[i] * in.p_LCom);
-  }
-  if (!(out.mass_kg > 0.0)) return out;
-  out.p_NCom = first_moment / out.mass_kg;
-  for (std::size_t i = 0; i < inertials.size(); ++i) {
-    const urdf::InertialDesc& in = *inertials[i];
-    if (!(in.mass_kg > 0.0)) continue;
-    const Eigen::Matrix3d R = X_NL[i].linear();
-    const Eigen::Vector3d d = X_NL[i] * in.p_LCom - out.p_NCom;
-    out.I_Com_N += R * in.I_Com_L * R.transpose() +
-                   in.mass_kg * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
-  }
-  out.I_Com_N = 0.5 * (out.I_Com_N + out.I_Com_N.transpose()).eval();
-  return out;
-}
 
 }  // namespace
 
@@ -143,19 +111,14 @@ void OdeWorld::buildNodes(const urdf::RobotDescription& robot, bool floating_bas
   }
 
   // Lumped mass properties per node.
-  std::vector<std::vector<const urdf::InertialDesc*>> inertials(nodes_.size());
-  std::vector<std::vector<Eigen::Isometry3d>> frames(nodes_.size());
-  for (std::size_t l = 0; l < robot.links.size(); ++l) {
-    const auto n = static_cast<std::size_t>(links_[l].node);
-    inertials[n].push_back(&robot.links[l].inertial);
-    frames[n].push_back(links_[l].X_NL);
-  }
+  std::vector<urdf::RigidMass> lumped(nodes_.size());
+  for (std::size_t l = 0; l < robot.links.size(); ++l)
+    lumped[static_cast<std::size_t>(links_[l].node)].add(robot.links[l].inertial, links_[l].X_NL);
   for (std::size_t n = 0; n < nodes_.size(); ++n) {
-    const LumpedMass m = lump(inertials[n], frames[n]);
     OdeNode& node = nodes_[n];
-    node.mass_kg = m.mass_kg;
-    node.p_NCom = m.p_NCom;
-    node.I_Com_N = m.I_Com_N;
+    node.mass_kg = lumped[n].mass_kg;
+    node.p_NCom = lumped[n].p_FCom();
+    node.I_Com_N = lumped[n].I_Com_F();
   }
   for (std::size_t l = 0; l < links_.size(); ++l) {
     const OdeNode& node = nodes_[static_cast<std::size_t>(links_[l].node)];

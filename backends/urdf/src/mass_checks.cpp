@@ -11,41 +11,21 @@
 
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/urdf/rigid_mass.hpp"
 
 namespace dynfilter::urdf {
 
 namespace {
 
-// Mass properties of a set of links at the zero configuration, about the root frame R.
-struct Composite {
-  double mass_kg = 0.0;
-  Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();  // Σ m c_R
-  Eigen::Matrix3d I_origin_R = Eigen::Matrix3d::Zero();    // about R's origin
-
-  void add(const InertialDesc& in, const Eigen::Isometry3d& X_RL) {
-    if (!(in.mass_kg > 0.0)) return;
-    const Eigen::Vector3d c = X_RL * in.p_LCom;
-    const Eigen::Matrix3d R = X_RL.linear();
-    mass_kg += in.mass_kg;
-    first_moment += in.mass_kg * c;
-    I_origin_R += R * in.I_Com_L * R.transpose() +
-                  in.mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
-  }
-  // Rotational inertia about the set's centre of mass, R axes (mass_kg > 0).
-  Eigen::Matrix3d inertiaAboutCom() const {
-    const Eigen::Vector3d c = first_moment / mass_kg;
-    return I_origin_R - mass_kg * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
-  }
-  // Kinetic energy ×2 of a unit-rate motion of the set about (revolute) or along
-  // (prismatic) the axis a through o.
-  double unitMotionInertia(bool prismatic, const Eigen::Vector3d& a, const Eigen::Vector3d& o) const {
-    if (prismatic) return mass_kg;
-    // I about o = I_origin − m(c·o terms): shift with the parallel-axis theorem via the CoM.
-    if (!(mass_kg > 0.0)) return 0.0;
-    const Eigen::Vector3d d = first_moment / mass_kg - o;
-    return a.dot(inertiaAboutCom() * a) + mass_kg * a.cross(d).squaredNorm();
-  }
-};
+// Kinetic energy ×2 of a unit-rate motion of @p body (summed in the root frame R) about
+// (revolute) or along (prismatic) the axis a_R through o_R.
+double unitMotionInertia(const RigidMass& body, bool prismatic, const Eigen::Vector3d& a_R,
+                         const Eigen::Vector3d& o_R) {
+  if (prismatic) return body.mass_kg;
+  if (!(body.mass_kg > 0.0)) return 0.0;
+  const Eigen::Vector3d d = body.p_FCom() - o_R;
+  return a_R.dot(body.I_Com_F() * a_R) + body.mass_kg * a_R.cross(d).squaredNorm();
+}
 
 // Smallest moment of inertia (kg m²) or mass (kg) a joint's motion must move.
 constexpr double kMinMovedInertia = 1e-12;
@@ -87,7 +67,7 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
   // positive semi-definite rotational inertia about its centre of mass; rounding in the
   // URDF's digits (a product of inertia of 1e-20 on a point mass) is tolerated.
   std::vector<int> body_of(robot.links.size(), -1);
-  std::vector<Composite> body(robot.links.size());
+  std::vector<RigidMass> body(robot.links.size());
   std::vector<int> welded(robot.links.size(), 0);
   for (const int l : order) {
     const auto li = static_cast<std::size_t>(l);
@@ -101,10 +81,10 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
   for (const int l : order) {
     const auto li = static_cast<std::size_t>(l);
     if (body_of[li] != l) continue;
-    const Composite& c = body[li];
+    const RigidMass& c = body[li];
     const bool moves = robot.links[li].parent_joint >= 0 || floating_base;
     if (!moves || !(c.mass_kg > 0.0)) continue;  // massless: the joint check below decides
-    const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(c.inertiaAboutCom()).eigenvalues();
+    const Eigen::Vector3d m = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(c.I_Com_F()).eigenvalues();
     if (m[0] >= -std::max(1e-9 * std::abs(m[2]), kMinMovedInertia)) continue;
     const LinkDesc& link = robot.links[li];
     const std::string with =
@@ -116,23 +96,20 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
                          " kg m² about its centre of mass)");
   }
   // Subtree composites, children before parents.
-  std::vector<Composite> subtree(robot.links.size());
+  std::vector<RigidMass> subtree(robot.links.size());
   for (auto it = order.rbegin(); it != order.rend(); ++it) {
     const auto l = static_cast<std::size_t>(*it);
     subtree[l].add(robot.links[l].inertial, X_RL[l]);
     const int pj = robot.links[l].parent_joint;
     if (pj < 0) continue;
-    Composite& parent = subtree[static_cast<std::size_t>(robot.joints[static_cast<std::size_t>(pj)].parent_link)];
-    parent.mass_kg += subtree[l].mass_kg;
-    parent.first_moment += subtree[l].first_moment;
-    parent.I_origin_R += subtree[l].I_origin_R;
+    subtree[static_cast<std::size_t>(robot.joints[static_cast<std::size_t>(pj)].parent_link)].add(subtree[l]);
   }
   std::vector<char> moves_mass(robot.joints.size(), 0);
   for (std::size_t j = 0; j < robot.joints.size(); ++j) {
     const JointDesc& joint = robot.joints[j];
     if (!joint.moving()) continue;
     const Eigen::Isometry3d X_RJ = X_RL[static_cast<std::size_t>(joint.parent_link)] * joint.X_PJ;
-    const double moved = subtree[static_cast<std::size_t>(joint.child_link)].unitMotionInertia(
+    const double moved = unitMotionInertia(subtree[static_cast<std::size_t>(joint.child_link)],
         joint.type == JointType::kPrismatic, X_RJ.linear() * joint.axis_J, X_RJ.translation());
     moves_mass[j] = moved > kMinMovedInertia;
   }
@@ -152,11 +129,11 @@ void validateForDynamics(const RobotDescription& robot, bool floating_base) {
                          "singular; give the links <inertial> data or lock the joint)");
   }
   if (floating_base) {
-    const Composite& all = subtree[static_cast<std::size_t>(robot.root_link)];
+    const RigidMass& all = subtree[static_cast<std::size_t>(robot.root_link)];
     const LinkDesc& root = robot.links[static_cast<std::size_t>(robot.root_link)];
     bool ok = all.mass_kg > 0.0;
     if (ok) {
-      ok = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(all.inertiaAboutCom()).eigenvalues()[0] >
+      ok = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(all.I_Com_F()).eigenvalues()[0] >
            kMinMovedInertia;
     }
     if (!ok)
