@@ -135,6 +135,7 @@ bool RealtimeFilter::addMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q
   measured_q_ = q;
   measured_v_ = v;
   measured_local_s_ = now_s;
+  measured_fresh_ = true;
   return true;
 }
 
@@ -174,8 +175,12 @@ const FilterOutput& RealtimeFilter::tick(double now_s) {
     }
   }
   last_tick_s_ = now_s;
-  if (options_.use_measured_state && now_s - measured_local_s_ <= options_.measured_state_timeout_s)
+  // A state is used once: without a newer one the filter runs on from its own state (its
+  // model's prediction under the commands it sent), not again from a state that ages.
+  if (options_.use_measured_state && measured_fresh_ &&
+      now_s - measured_local_s_ <= options_.measured_state_timeout_s)
     filter_.setMeasuredState(measured_q_, measured_v_);
+  measured_fresh_ = false;
 
   const FilterOutput& out = filter_.step(sample_);
   std::uint32_t extra = stale_ ? kStatusStaleReference : 0u;

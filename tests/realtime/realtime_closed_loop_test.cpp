@@ -107,6 +107,30 @@ TEST_P(RealtimeClosedLoop, ARobotAndSenderFrozenAThirdOfASecondDoNotTipTheRobot)
   EXPECT_NE(r.status_union & kStatusStaleReference, 0u) << "the gap made the reference stale";
 }
 
+// The robot's states held back 0.3 s while the robot steps on with the filter's commands,
+// then arriving together (a state reader descheduled; in a 60 s LCM run on ODE a state
+// reached the filter 38 ms after its stamp and the robot fell). The filter must run on its
+// own state between states, not restart every tick from the last state it got: it did,
+// for up to measured_state_timeout_s, and the robot fell on both engines (ODE at 2.2 s, DART
+// at 2.6 s after the replay's start; with 0.1 s, DART fell when held at 2.3 s).
+TEST_P(RealtimeClosedLoop, RobotStatesHeldBackAThirdOfASecondDoNotTipTheRobot) {
+  const auto robot = urdf::loadUrdfFile(test::humanFigurePath());
+  const std::vector<realtime::Clip> clips = squatClips(robot);
+  ClosedLoopSetup setup;
+  setup.robot_engine = GetParam();
+  setup.filter.mode = FilterMode::kQp;
+  setup.replay.loop = true;
+  setup.seconds = 3.0;
+  setup.state_delay_at_s = 1.0;
+  setup.state_delay_s = 0.3;
+  ASSERT_GT(setup.state_delay_s, setup.realtime.measured_state_timeout_s) << "the measured state times out";
+  const ClosedLoopResult r = runClosedLoop(robot, setup, clips);
+  EXPECT_LT(r.fell_at_s, 0.0);
+  EXPECT_GT(r.min_base_z_m, 0.86) << "at " << r.min_base_z_time_s << " s";
+  EXPECT_LT(r.max_tilt_rad, 0.05);
+  EXPECT_EQ(r.reseeds, 0u);
+}
+
 INSTANTIATE_TEST_SUITE_P(Engines, RealtimeClosedLoop, testing::Values("ode", "dart"),
                          [](const testing::TestParamInfo<std::string>& p) { return p.param; });
 

@@ -55,6 +55,10 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--sender-gap-first-s", setup.gap_first_s, "first gap this long after the replay starts")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--state-delay-s", setup.state_delay_s,
+                 "the robot's states are held back this long (the robot steps on), then arrive together")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--state-delay-at-s", setup.state_delay_at_s, "... from this long after the replay starts");
   app.add_flag("--gap-stalls-robot", setup.gap_stalls_robot,
                "the robot stalls with the sender (its CPU frozen): no step, no state during a gap");
   app.add_option("--log", log_path, "one line a tick (closed_loop_sim.hpp)");

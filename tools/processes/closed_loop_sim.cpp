@@ -48,6 +48,11 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
   const double dt = 1e-3;
   const int ticks = static_cast<int>(std::lround((setup.replay_start_s + setup.seconds) / dt));
   Eigen::VectorXd tau = Eigen::VectorXd::Zero(info.nj);
+  struct HeldState {
+    Eigen::VectorXd q, v;
+    double t;
+  };
+  std::vector<HeldState> held_states;
   // Local time t falls in one of the sender's descheduled gaps.
   const auto inGap = [&setup](double t) {
     const double since = t - setup.replay_start_s - setup.gap_first_s;
@@ -63,7 +68,16 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
       ++r.frames_sent;
     }
     const bool robot_stalled = setup.gap_stalls_robot && inGap(now);
-    if (!robot_stalled) rt.addMeasuredState(robot->q(), robot->v(), now, now);
+    const double since_replay = now - setup.replay_start_s;
+    const bool states_held = setup.state_delay_s > 0.0 && since_replay >= setup.state_delay_at_s &&
+                             since_replay < setup.state_delay_at_s + setup.state_delay_s;
+    if (states_held) {
+      held_states.push_back({robot->q(), robot->v(), now});
+    } else {
+      for (const HeldState& h : held_states) rt.addMeasuredState(h.q, h.v, h.t, now);
+      held_states.clear();
+      if (!robot_stalled) rt.addMeasuredState(robot->q(), robot->v(), now, now);
+    }
     const FilterOutput& out = rt.tick(now);
     r.status_union |= rt.status();
     if (out.status & kStatusReseeded)

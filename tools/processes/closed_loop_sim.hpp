@@ -36,6 +36,10 @@ struct ClosedLoopSetup {
   /// The robot's process stalls with the sender (its CPU frozen, as a virtual CPU can be):
   /// during a gap the robot neither steps nor sends its state; the filter ticks on.
   bool gap_stalls_robot = false;
+  /// The robot's states are held back for state_delay_s from state_delay_at_s after the
+  /// replay starts (the robot steps on with the filter's commands) and then arrive together,
+  /// as a socket's backlog does after its reader was descheduled (0: never).
+  double state_delay_s = 0.0, state_delay_at_s = 0.0;
   /// Base height (m) below which the robot counts as fallen.
   double fallen_below_m = 0.5;
 };

@@ -45,9 +45,10 @@ struct RealtimeOptions {
   double stream_blend_s = 1.0;
   /// The reference is played this far (s) behind the newest received frame's time.
   double reference_delay_s = 0.05;
-  /// Start each tick from the measured robot state when one is fresh.
+  /// Start a tick from the measured robot state when a new one has arrived (each state is
+  /// used once); between states the filter runs on from its own state.
   bool use_measured_state = false;
-  /// A measured state older than this (s) is not used.
+  /// A measured state received longer ago than this (s) is not used.
   double measured_state_timeout_s = 0.05;
   /// Stream policy (message_stream.hpp) of both the reference and the robot state: the
   /// clock tolerance, the messages in a row that make a new stream, and the optional
@@ -90,7 +91,8 @@ class RealtimeFilter {
   bool addReference(const ReferenceFrame& frame, double now_s, std::int64_t sequence = -1);
 
   /// A validated measured state (q: nq, v: nv) stamped @p stamp_s on the robot's clock,
-  /// received at @p now_s. Returns false when it is off the state stream (not used).
+  /// received at @p now_s. Returns false when it is off the state stream (not used). With
+  /// use_measured_state the next tick starts from the newest accepted state, once.
   bool addMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
                         const Eigen::Ref<const Eigen::VectorXd>& v, double stamp_s,
                         double now_s);
@@ -134,6 +136,7 @@ class RealtimeFilter {
   double last_tick_s_ = 0.0;     // local time of the previous tick
   double last_frame_local_s_ = -1e300;
   double measured_local_s_ = -1e300;
+  bool measured_fresh_ = false;  // a state arrived since the last tick
   bool stale_ = true;
   std::uint32_t status_ = 0;
   Counters counters_;
