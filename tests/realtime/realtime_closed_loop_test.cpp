@@ -21,6 +21,25 @@ std::vector<realtime::Clip> squatClips(const urdf::RobotDescription& robot) {
   return {{"squat", io::readReferenceMotion(test::sourcePath("data/squat_reference.csv"), model->info()).frames}};
 }
 
+// The squat, looped for 3 s in the QP mode with the robot on @p engine; each test adds the
+// disturbance it is about.
+ClosedLoopSetup squatLoop(const std::string& engine) {
+  ClosedLoopSetup setup;
+  setup.robot_engine = engine;
+  setup.filter.mode = FilterMode::kQp;
+  setup.replay.loop = true;
+  setup.seconds = 3.0;
+  return setup;
+}
+
+// The robot squatted on its feet to the end, upright, with no re-seed.
+void expectStoodThrough(const ClosedLoopResult& r, const std::string& label = {}) {
+  EXPECT_LT(r.fell_at_s, 0.0) << label;
+  EXPECT_GT(r.min_base_z_m, 0.86) << label << " at " << r.min_base_z_time_s << " s";
+  EXPECT_LT(r.max_tilt_rad, 0.05) << label;
+  EXPECT_EQ(r.reseeds, 0u) << label;
+}
+
 // The balance layer's look-ahead (on by default) at a stream's start: the sender is
 // descheduled for 80 ms as the replay starts and every 0.5 s after (a loaded machine:
 // dynfilter-replay runs at normal priority beside two real-time processes), so the first
@@ -33,26 +52,19 @@ class RealtimeClosedLoop : public testing::TestWithParam<std::string> {};
 
 TEST_P(RealtimeClosedLoop, ADescheduledSenderDoesNotTipTheRobotWithTheBalancePreview) {
   const auto robot = urdf::loadUrdfFile(test::humanFigurePath());
-  ClosedLoopSetup setup;
-  setup.robot_engine = GetParam();
-  setup.filter.mode = FilterMode::kQp;
+  ClosedLoopSetup setup = squatLoop(GetParam());
   ASSERT_TRUE(setup.realtime.balance_preview) << "the preview is the default";
   // Without the soft start, which hides the hand-over here (the stream then starts at the
   // robot's posture): this test is about the preview at the hand-over.
   setup.realtime.stream_blend_s = 0.0;
-  setup.replay.loop = true;
-  setup.seconds = 3.0;
   setup.gap_every_s = 0.5;
   setup.gap_s = 0.08;
   const std::vector<realtime::Clip> clips = squatClips(robot);
   const ClosedLoopResult r = runClosedLoop(robot, setup, clips);
   RecordProperty("min_base_z_m", std::to_string(r.min_base_z_m));
   RecordProperty("max_tilt_rad", std::to_string(r.max_tilt_rad));
-  EXPECT_LT(r.fell_at_s, 0.0);
-  EXPECT_GT(r.min_base_z_m, 0.86) << "at " << r.min_base_z_time_s << " s";
+  expectStoodThrough(r);
   EXPECT_LT(r.min_base_z_m, 0.89) << "the robot squats";
-  EXPECT_LT(r.max_tilt_rad, 0.05);
-  EXPECT_EQ(r.reseeds, 0u);
   EXPECT_EQ(r.status_union & (kStatusReseeded | kStatusNonFinite | kStatusQpFallback), 0u) << r.status_union;
 }
 
@@ -64,19 +76,11 @@ TEST_P(RealtimeClosedLoop, ASenderSilentAFifthOfASecondAtATimeDoesNotTipTheRobot
   const auto robot = urdf::loadUrdfFile(test::humanFigurePath());
   const std::vector<realtime::Clip> clips = squatClips(robot);
   for (const bool preview : {true, false}) {
-    ClosedLoopSetup setup;
-    setup.robot_engine = GetParam();
-    setup.filter.mode = FilterMode::kQp;
+    ClosedLoopSetup setup = squatLoop(GetParam());
     setup.realtime.balance_preview = preview;
-    setup.replay.loop = true;
-    setup.seconds = 3.0;
     setup.gap_every_s = 0.5;
     setup.gap_s = 0.2;
-    const ClosedLoopResult r = runClosedLoop(robot, setup, clips);
-    EXPECT_LT(r.fell_at_s, 0.0) << "preview " << preview;
-    EXPECT_GT(r.min_base_z_m, 0.86) << "preview " << preview << ", at " << r.min_base_z_time_s << " s";
-    EXPECT_LT(r.max_tilt_rad, 0.05) << "preview " << preview;
-    EXPECT_EQ(r.reseeds, 0u) << "preview " << preview;
+    expectStoodThrough(runClosedLoop(robot, setup, clips), preview ? "preview on" : "preview off");
   }
 }
 
@@ -88,11 +92,7 @@ TEST_P(RealtimeClosedLoop, ASenderSilentAFifthOfASecondAtATimeDoesNotTipTheRobot
 TEST_P(RealtimeClosedLoop, ARobotAndSenderFrozenAThirdOfASecondDoNotTipTheRobot) {
   const auto robot = urdf::loadUrdfFile(test::humanFigurePath());
   const std::vector<realtime::Clip> clips = squatClips(robot);
-  ClosedLoopSetup setup;
-  setup.robot_engine = GetParam();
-  setup.filter.mode = FilterMode::kQp;
-  setup.replay.loop = true;
-  setup.seconds = 3.0;
+  ClosedLoopSetup setup = squatLoop(GetParam());
   setup.gap_every_s = 100.0;
   setup.gap_first_s = 1.2;
   setup.gap_s = 0.3;
@@ -100,10 +100,7 @@ TEST_P(RealtimeClosedLoop, ARobotAndSenderFrozenAThirdOfASecondDoNotTipTheRobot)
   ASSERT_GT(setup.gap_s, setup.realtime.measured_state_timeout_s) << "the measured state times out";
   setup.gap_stalls_robot = true;
   const ClosedLoopResult r = runClosedLoop(robot, setup, clips);
-  EXPECT_LT(r.fell_at_s, 0.0);
-  EXPECT_GT(r.min_base_z_m, 0.86) << "at " << r.min_base_z_time_s << " s";
-  EXPECT_LT(r.max_tilt_rad, 0.05);
-  EXPECT_EQ(r.reseeds, 0u);
+  expectStoodThrough(r);
   EXPECT_NE(r.status_union & kStatusStaleReference, 0u) << "the gap made the reference stale";
 }
 
@@ -116,19 +113,11 @@ TEST_P(RealtimeClosedLoop, ARobotAndSenderFrozenAThirdOfASecondDoNotTipTheRobot)
 TEST_P(RealtimeClosedLoop, RobotStatesHeldBackAThirdOfASecondDoNotTipTheRobot) {
   const auto robot = urdf::loadUrdfFile(test::humanFigurePath());
   const std::vector<realtime::Clip> clips = squatClips(robot);
-  ClosedLoopSetup setup;
-  setup.robot_engine = GetParam();
-  setup.filter.mode = FilterMode::kQp;
-  setup.replay.loop = true;
-  setup.seconds = 3.0;
+  ClosedLoopSetup setup = squatLoop(GetParam());
   setup.state_delay_at_s = 1.0;
   setup.state_delay_s = 0.3;
   ASSERT_GT(setup.state_delay_s, setup.realtime.measured_state_timeout_s) << "the measured state times out";
-  const ClosedLoopResult r = runClosedLoop(robot, setup, clips);
-  EXPECT_LT(r.fell_at_s, 0.0);
-  EXPECT_GT(r.min_base_z_m, 0.86) << "at " << r.min_base_z_time_s << " s";
-  EXPECT_LT(r.max_tilt_rad, 0.05);
-  EXPECT_EQ(r.reseeds, 0u);
+  expectStoodThrough(runClosedLoop(robot, setup, clips));
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, RealtimeClosedLoop, testing::Values("ode", "dart"),
