@@ -34,9 +34,10 @@ struct ContactQp::SizeClass {
   std::uint64_t signature = 0;  // which links, of which kinds, the last solve had
 };
 
-QpSolveInfo ContactQp::timedSolve(SizeClass& sc, ContactQpReport& report) {
+QpSolveInfo ContactQp::timedSolve(SizeClass& sc, ContactQpReport& report, bool bounds_only) {
   const Clock::time_point t0 = Clock::now();
-  const QpSolveInfo info = sc.solver->solve(sc.qp, sc.x);
+  const QpSolveInfo info =
+      bounds_only ? sc.solver->resolveWithNewBounds(sc.qp, sc.x) : sc.solver->solve(sc.qp, sc.x);
   report.solver_time_s += std::chrono::duration<double>(Clock::now() - t0).count();
   return info;
 }
@@ -277,7 +278,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   }
   if (signature != sc.signature) sc.solver->resetWarmStart();
   sc.signature = signature;
-  report.info = timedSolve(sc, report);
+  report.info = timedSolve(sc, report, /*bounds_only=*/false);
   // The check is the criterion: an iterate stopped by the iteration limit that satisfies
   // every family to tolerance is as good as a converged one.
   auto acceptable = [&]() {
@@ -295,10 +296,10 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     return acceptable();
   };
   // A relaxation is solved cold (its problem differs), and the next tick starts cold too.
-  auto solveRelaxedCold = [&]() {
+  auto solveRelaxedCold = [&](bool bounds_only) {
     const int earlier_iterations = report.info.iterations;
     sc.solver->resetWarmStart();
-    report.info = timedSolve(sc, report);
+    report.info = timedSolve(sc, report, bounds_only);
     report.info.iterations += earlier_iterations;
     sc.solver->resetWarmStart();
   };
@@ -330,7 +331,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       qp.x_upper[nv_ + lb.row + 2] = kQpInfinity;
       qp.x_lower[nv_ + lb.row + 2] = lb.f_min;
     }
-    solveRelaxedCold();
+    solveRelaxedCold(/*bounds_only=*/true);
     report.ok = extract();
   }
   if (!report.ok && nc > 0) {
@@ -349,7 +350,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     qp.x_lower.tail(cap).setConstant(-kQpInfinity);
     qp.x_upper.tail(cap).setConstant(kQpInfinity);
     num_links_ = 0;
-    solveRelaxedCold();
+    solveRelaxedCold(/*bounds_only=*/false);
     vdot = sc.x.head(nv_);
     tau_C.setZero();
     tau_J = b_J;

@@ -103,6 +103,85 @@ TEST(DaqpAdapter, InfeasibleProblemIsNotReportedSolved) {
   EXPECT_NEAR(x[0], 1.0, 1e-13);
 }
 
+TEST(DaqpAdapter, ABoundsOnlyResolveAfterAnInfeasibleSolveGivesTheRelaxedAnswer) {
+  // The filter's relaxation: x ≥ 1 (box) against x ≤ 0 (row) is infeasible. With g = 1,
+  // dropping the box leaves min ½x² + x s.t. x ≤ 0 → x = −1; the box −0.75 ≤ x ≤ −0.5 then
+  // binds below: x = −0.75.
+  auto solver = daqp::makeSolver(1, 0, 1, QpSolverSettings{});
+  DenseQp qp = test::boxAgainstRowProblem();
+  qp.g[0] = 1.0;  // pulls x towards −1 so that a wrong stale bound would show
+  Eigen::VectorXd x(1);
+  ASSERT_EQ(solver->solve(qp, x).status, QpSolveStatus::kPrimalInfeasible);
+  qp.x_lower[0] = -kQpInfinity;
+  ASSERT_EQ(solver->resolveWithNewBounds(qp, x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], -1.0, 1e-13) << "min ½x² + x with x ≤ 0";
+  qp.x_upper[0] = -0.5;
+  qp.x_lower[0] = -0.75;
+  ASSERT_EQ(solver->resolveWithNewBounds(qp, x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], -0.75, 1e-13);
+}
+
+// Random drifting QPs: after each full solve, its bounds are moved (some dropped, some
+// tightened) and re-solved with resolveWithNewBounds; the answer must equal a new instance's
+// cold solve of the same problem, whether the full solve ran DAQP or was answered by the
+// warm active-set guess (then the instance holds no factorisation of this problem).
+TEST(DaqpAdapter, BoundsOnlyResolvesEqualColdSolvesOfTheSameProblem) {
+  const int n = 20, n_eq = 4, n_in = 24;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  DenseQp qp(n, n_eq, n_in);
+  Eigen::MatrixXd L = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return normal(rng); });
+  qp.A = Eigen::MatrixXd::NullaryExpr(n_eq, n, [&] { return normal(rng); });
+  qp.C = Eigen::MatrixXd::NullaryExpr(n_in, n, [&] { return normal(rng); });
+  qp.g = 3.0 * Eigen::VectorXd::NullaryExpr(n, [&] { return normal(rng); });
+  qp.b = 0.5 * Eigen::VectorXd::NullaryExpr(n_eq, [&] { return normal(rng); });
+  auto solver = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
+  int resolved = 0, bounds_binding = 0;
+  for (int k = 0; k < 30; ++k) {
+    L += 0.02 * Eigen::MatrixXd::NullaryExpr(n, n, [&] { return normal(rng); });
+    qp.H = L * L.transpose() / n + 0.1 * Eigen::MatrixXd::Identity(n, n);
+    qp.g += 0.1 * Eigen::VectorXd::NullaryExpr(n, [&] { return normal(rng); });
+    qp.x_lower.setConstant(-0.6);
+    qp.x_upper.setConstant(0.6);
+    qp.l.setConstant(-1.0);
+    qp.u.setConstant(1.0);
+    Eigen::VectorXd x(n), x_cold(n);
+    solver->solve(qp, x);
+    // Every third tick moves g a little and solves again: the warm guess answers that in one
+    // step, so DAQP itself still holds the g before the move.
+    if (k % 3 == 2) {
+      qp.g += 1e-4 * Eigen::VectorXd::NullaryExpr(n, [&] { return normal(rng); });
+      EXPECT_EQ(solver->solve(qp, x).iterations, 1) << "tick " << k;
+    }
+    for (int i = 0; i < n; ++i) {
+      const double r = unit(rng);
+      if (r < 0.3) {
+        qp.x_lower[i] = -kQpInfinity;
+        qp.x_upper[i] = kQpInfinity;
+      } else if (r < 0.5) {
+        qp.x_upper[i] = 0.3;
+      }
+    }
+    for (int i = 0; i < n_in; ++i) {
+      if (unit(rng) < 0.3) {
+        qp.l[i] = -kQpInfinity;
+        qp.u[i] = kQpInfinity;
+      }
+    }
+    const QpSolveInfo info = solver->resolveWithNewBounds(qp, x);
+    auto cold = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
+    const QpSolveInfo cold_info = cold->solve(qp, x_cold);
+    ASSERT_EQ(info.status, cold_info.status) << "tick " << k;
+    if (info.status != QpSolveStatus::kSolved) continue;
+    ++resolved;
+    EXPECT_LT((x - x_cold).cwiseAbs().maxCoeff(), 1e-9) << "tick " << k;
+    for (int i = 0; i < n; ++i) bounds_binding += std::abs(x[i] - 0.3) < 1e-9 ? 1 : 0;
+  }
+  EXPECT_GT(resolved, 20);
+  EXPECT_GT(bounds_binding, 10) << "the moved bounds must bind for the comparison to mean anything";
+}
+
 TEST(DaqpAdapter, NonFiniteDataIsReportedNotSolved) {
   auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
   DenseQp qp = projectionProblem();

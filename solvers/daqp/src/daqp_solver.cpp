@@ -80,6 +80,7 @@ class DaqpSolver final : public IQpSolver {
 
   QpSolveInfo solve(const DenseQp& p, Eigen::Ref<Eigen::VectorXd> x) override {
     QpSolveInfo info;
+    loaded_ = false;
     // Warm: the last answer's active set first (one linear solve, every KKT condition
     // checked); DAQP runs only when it fails.
     if (const int steps = active_set_.solve(p, eps_abs_, kActiveSetSteps, x, y_, z_); steps > 0) {
@@ -91,6 +92,32 @@ class DaqpSolver final : public IQpSolver {
     f_ = p.g;
     rows_.topRows(n_eq_) = p.A;
     rows_.bottomRows(n_in_) = p.C;
+    if (!H_.allFinite() || !f_.allFinite() || !rows_.allFinite()) {
+      info.status = QpSolveStatus::kNotFinite;
+      return info;
+    }
+    return run(p, x, DAQP_UPDATE_Rinv | DAQP_UPDATE_M | DAQP_UPDATE_v | DAQP_UPDATE_d);
+  }
+
+  QpSolveInfo resolveWithNewBounds(const DenseQp& p, Eigen::Ref<Eigen::VectorXd> x) override {
+    resetWarmStart();
+    if (!loaded_) return solve(p, x);
+    // DAQP holds the factor of H and the rows times its inverse from the last solve: only
+    // the bounds' images need forming again (saves two O(n³) steps on a relaxed tick).
+    return run(p, x, DAQP_UPDATE_d);
+  }
+
+  void resetWarmStart() override {
+    cold_ = true;
+    active_set_.clear();
+  }
+
+  const char* name() const override { return "daqp"; }
+
+ private:
+  // Copies the bounds, updates DAQP's problem by @p mask and solves.
+  QpSolveInfo run(const DenseQp& p, Eigen::Ref<Eigen::VectorXd> x, int mask) {
+    QpSolveInfo info;
     for (int i = 0; i < n_; ++i) {
       upper_[i] = mapBound(p.x_upper[i]);
       lower_[i] = mapBound(p.x_lower[i]);
@@ -99,10 +126,6 @@ class DaqpSolver final : public IQpSolver {
     for (int i = 0; i < n_in_; ++i) {
       upper_[n_ + n_eq_ + i] = mapBound(p.u[i]);
       lower_[n_ + n_eq_ + i] = mapBound(p.l[i]);
-    }
-    if (!H_.allFinite() || !f_.allFinite() || !rows_.allFinite()) {
-      info.status = QpSolveStatus::kNotFinite;
-      return info;
     }
 
     int flag = 0;
@@ -113,7 +136,6 @@ class DaqpSolver final : public IQpSolver {
       set_up_ = flag >= 0;  // a failed setup has freed its workspace: set up again next time
     } else {
       // Hot start: the working set of the last solve stays unless the caller reset it.
-      int mask = DAQP_UPDATE_Rinv | DAQP_UPDATE_M | DAQP_UPDATE_v | DAQP_UPDATE_d;
       if (cold_) {
         resetSense();
         mask |= DAQP_UPDATE_sense;
@@ -128,6 +150,7 @@ class DaqpSolver final : public IQpSolver {
                                                  : QpSolveStatus::kNotFinite;
       return info;
     }
+    loaded_ = true;
     DAQPResult result{};
     result.x = x.data();
     result.lam = lambda_.data();
@@ -171,14 +194,6 @@ class DaqpSolver final : public IQpSolver {
     return info;
   }
 
-  void resetWarmStart() override {
-    cold_ = true;
-    active_set_.clear();
-  }
-
-  const char* name() const override { return "daqp"; }
-
- private:
   void resetSense() {
     for (int i = 0; i < m_; ++i)
       sense_[static_cast<std::size_t>(i)] =
@@ -201,6 +216,7 @@ class DaqpSolver final : public IQpSolver {
   bool warm_start_;
   bool set_up_ = false;
   bool cold_ = true;
+  bool loaded_ = false;  // DAQP's workspace holds H, g and the rows of the last solve()
   RowMajorMatrix H_;
   Eigen::VectorXd f_;
   RowMajorMatrix rows_;

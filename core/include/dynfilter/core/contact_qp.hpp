@@ -135,7 +135,8 @@ class ContactQp {
 
  private:
   struct SizeClass;
-  QpSolveInfo timedSolve(SizeClass& sc, ContactQpReport& report);
+  // Solves sc.qp into sc.x; bounds_only: only the bounds changed since the last solve.
+  QpSolveInfo timedSolve(SizeClass& sc, ContactQpReport& report, bool bounds_only);
   void buildJointBounds(const Eigen::Ref<const Eigen::VectorXd>& q,
                         const Eigen::Ref<const Eigen::VectorXd>& v);
 

@@ -82,6 +82,13 @@ class IQpSolver {
   /// Solves @p problem (same dimensions on every call); writes x (dim n) even on failure
   /// (the engine's last iterate).
   virtual QpSolveInfo solve(const DenseQp& problem, Eigen::Ref<Eigen::VectorXd> x) = 0;
+  /// Solves @p problem again, cold, after only its bounds (l, u, x_lower, x_upper) changed
+  /// since the last call to solve(): H, g, A, b and C must be those of that call. An engine
+  /// may then keep its factorisations of H and of the rows; the default solves from scratch.
+  virtual QpSolveInfo resolveWithNewBounds(const DenseQp& problem, Eigen::Ref<Eigen::VectorXd> x) {
+    resetWarmStart();
+    return solve(problem, x);
+  }
   /// The next solve starts cold (the problem's structure changed).
   virtual void resetWarmStart() = 0;
   /// Engine name, e.g. "proxqp".
