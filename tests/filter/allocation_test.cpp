@@ -181,6 +181,50 @@ TEST_P(AllocationQp, QpModeSteadyStateTickAllocatesNothingInTheCore) {
 
 INSTANTIATE_TEST_SUITE_P(Engines, AllocationQp, ::testing::Values("daqp", "proxqp"));
 
+// The QP mode's relaxation: legs too weak (5 N m) to stand on bent knees make the QP with
+// the joint-limit bounds infeasible; the bounds give way in a re-solve in which DAQP keeps
+// its factorisations (IQpSolver::resolveWithNewBounds). The default engine only: ProxQP
+// allocates inside proxsuite when an active-set change inserts several rows at once
+// (2 mallocs over these 280 ticks, in Ldlt::insert_block_at; README, "QP mode").
+TEST(Allocation, QpModeRelaxedTicksAllocateNothingInTheCoreWithDaqp) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
+  urdf::RobotDescription weak = urdf::loadUrdfFile(test::humanFigurePath());
+  for (urdf::JointDesc& joint : weak.joints)
+    if (joint.name.find("hip") != std::string::npos || joint.name.find("knee") != std::string::npos ||
+        joint.name.find("ankle") != std::string::npos)
+      joint.effort_max = 5.0;
+  auto dart = test::makeModel("dart", weak, ModelOptions{});
+  auto strong = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  // The sway with bent knees: standing on them asks for far more than 5 N m.
+  auto frames = test::simulateStandingSway(*strong, 0.3, 1e-3);
+  const ModelInfo& info = dart->info();
+  for (ReferenceFrame& f : frames)
+    for (const char* side : {"l_", "r_"}) {
+      f.q[info.configurationIndex(info.findJoint(std::string(side) + "knee"))] += 0.6;
+      f.q[info.configurationIndex(info.findJoint(std::string(side) + "hip_pitch"))] -= 0.3;
+      f.q[info.configurationIndex(info.findJoint(std::string(side) + "ankle_pitch"))] -= 0.3;
+    }
+  MeasuredModel model(*dart);
+  FilterOptions options;
+  options.mode = FilterMode::kQp;
+  ASSERT_TRUE(options.qp.enforce_joint_limits) << "the chain's middle solve needs the joint-limit bounds";
+  DynamicsFilter filter(model, options, qp_engines::factory("daqp"));
+  filter.reset(frames.front());
+  for (int k = 0; k < 20; ++k) filter.step(frames[static_cast<std::size_t>(k)]);  // warm up
+  std::uint32_t seen = 0, relaxations = 0;
+  resetCounts();
+  g_counting = true;
+  for (std::size_t k = 20; k < frames.size(); ++k) {
+    seen |= filter.step(frames[k]).status;
+    relaxations |= filter.output().qp_relaxation;
+  }
+  g_counting = false;
+  EXPECT_TRUE(seen & kStatusQpRelaxed) << "status union " << seen;
+  EXPECT_TRUE(relaxations & 1u) << "the joint-limit bounds were dropped (relaxation bits " << relaxations << ")";
+  EXPECT_EQ(seen & kStatusQpFallback, 0u);
+  expectNoCoreAllocations(static_cast<long>(frames.size()) - 20);
+}
+
 TEST(Allocation, HullGroundContactsAllocateNothing) {
   if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
   // Both backends call this in every detectContacts: a 64-vertex hull, half below a slope.
