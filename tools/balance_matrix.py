@@ -135,6 +135,7 @@ COLUMNS = [
     ("frames_pulling_contact", "pulling", "{:d}"),
     ("frames_friction_violation", "cone", "{}"),
     ("frames_cop_outside", "CoP", "{}"),
+    ("frames_torsion_violation", "torsion", "{}"),
     ("frames_torque_over_limit", "torque", "{}"),
     ("max_base_residual_rel_bw", "Eq. 12 base / weight", "{:.1e}"),
 ]

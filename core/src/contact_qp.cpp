@@ -94,7 +94,7 @@ ContactQp::ContactQp(const ModelInfo& info, int max_links, double dt_s,
     c->capacity = capacity;
     c->link_capacity = std::min(max_links, capacity / 3);
     const int n = nv_ + capacity;
-    const int n_in = nj_ + c->link_capacity * (K + 4);
+    const int n_in = nj_ + c->link_capacity * (K + 6);  // facets, CoP (4), torsion (2)
     c->qp = DenseQp(n, nb_ + capacity, n_in);
     c->solver = factory(n, nb_ + capacity, n_in, options.solver);
     if (!c->solver) throw std::invalid_argument("the QP solver factory returned no solver");
@@ -232,6 +232,8 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       const double rate = std::max(weight_n_, link.release_start_force_n) / options_.release_transition_s;
       lb.f_min = std::max(lb.f_min, std::min(link.normal_force_n, lb.f_max) - rate * dt_s_);
     }
+    lb.torsion_arm_m = std::hypot(std::max(std::abs(link.support_min.x()), std::abs(link.support_max.x())),
+                                  std::max(std::abs(link.support_min.y()), std::abs(link.support_max.y())));
     const double margin = options_.cop_margin_m;
     lb.cop_min = link.support_min.array() + margin;
     lb.cop_max = link.support_max.array() - margin;
@@ -264,6 +266,16 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       qp.u[row++] = 0.0;
       qp.C(row, mx) = -1.0;  // −m_x + y_min f_z ≤ 0
       qp.C(row, fz) = lb.cop_min.y();
+      qp.u[row++] = 0.0;
+      // Torsion: Coulomb friction at the support's points twists the face by at most
+      // μ f_z times the farthest point's distance from the link origin (a necessary bound:
+      // the tangential force shares the same friction).
+      const int mz = fx + 5;
+      qp.C(row, mz) = 1.0;   //  m_z − μ r f_z ≤ 0
+      qp.C(row, fz) = -lb.mu * lb.torsion_arm_m;
+      qp.u[row++] = 0.0;
+      qp.C(row, mz) = -1.0;  // −m_z − μ r f_z ≤ 0
+      qp.C(row, fz) = -lb.mu * lb.torsion_arm_m;
       qp.u[row++] = 0.0;
     }
     slot += link.num_axes;
@@ -415,6 +427,8 @@ std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
       const double mx = tau_C[lb.row + 3];
       if (mx < lb.cop_min.y() * fz - kForceTolerance || mx > lb.cop_max.y() * fz + kForceTolerance)
         violated |= kQpFamilyCop;
+      if (std::abs(tau_C[lb.row + 5]) > lb.mu * lb.torsion_arm_m * std::max(fz, 0.0) + kForceTolerance)
+        violated |= kQpFamilyFriction;
     }
   }
   for (int j = 0; j < nj_; ++j) {

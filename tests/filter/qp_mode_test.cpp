@@ -75,6 +75,8 @@ struct PhysicsCheck {
   double max_friction_excess = -1e300;  // max ‖f_t‖ − μ f_z (N)
   double max_cop_excess_m = -1e300;  // max distance of a CoP outside its rectangle (m)
   double max_torque_excess = -1e300;  // max |τ_J| − τ_max
+  double max_torsion_excess = -1e300;  // faces: max |m·n| − μ r f_z (N m), r to the farthest corner
+  double max_torsion_ratio = 0.0;      // faces: max |m·n| / (μ r f_z)
   double max_base_residual_n = 0.0;
   int contact_ticks = 0;             // ticks with at least one contact
   int cop_checked = 0;               // face/edge contacts whose CoP was checked
@@ -95,6 +97,13 @@ struct PhysicsCheck {
       for (int d = 0; d < (c.kind == ContactKind::kFace ? 2 : 1); ++d) {
         max_cop_excess_m = std::max(max_cop_excess_m, link->support_min[d] - c.cop_A[d]);
         max_cop_excess_m = std::max(max_cop_excess_m, c.cop_A[d] - link->support_max[d]);
+      }
+      if (c.kind == ContactKind::kFace) {
+        const double r = std::hypot(std::max(std::abs(link->support_min.x()), std::abs(link->support_max.x())),
+                                    std::max(std::abs(link->support_min.y()), std::abs(link->support_max.y())));
+        const double twist = std::abs(c.wrench_W.tail<3>().dot(c.n_W));
+        max_torsion_excess = std::max(max_torsion_excess, twist - mu * r * fz);
+        if (fz > 1.0) max_torsion_ratio = std::max(max_torsion_ratio, twist / (mu * r * fz));
       }
       ++cop_checked;
     }
@@ -191,6 +200,7 @@ TEST(QpModeStanding, StaticStanceCarriesTheWeightWithTheCopOnTheSoles) {
   EXPECT_LE(check.max_friction_excess, 1e-6);
   EXPECT_GT(check.cop_checked, ticks);  // two soles on (almost) every tick
   EXPECT_LE(check.max_cop_excess_m, 1e-6);
+  EXPECT_LE(check.max_torsion_excess, 1e-6);
   EXPECT_LE(check.max_torque_excess, 1e-6);
   EXPECT_LE(check.max_base_residual_n, 1e-8 * weight);
   const FilterCounters& counters = filter.output().counters;
@@ -252,10 +262,49 @@ TEST(QpModeStanding, SwayingSquatKeepsContactsPhysical) {
   EXPECT_GE(check.min_normal_n, 1.0 - 1e-6);
   EXPECT_LE(check.max_friction_excess, 1e-6);
   EXPECT_LE(check.max_cop_excess_m, 1e-6);
+  EXPECT_LE(check.max_torsion_excess, 1e-6);
   EXPECT_LE(check.max_torque_excess, 1e-6);
   EXPECT_LE(check.max_base_residual_n, 1e-8 * weight);
   const FilterCounters& counters = filter.output().counters;
   EXPECT_EQ(counters.ticks, counters.qp_solves + counters.qp_fallbacks);
+}
+
+// A standing reference that twists about the vertical, ±0.8 rad at 3 Hz (peak yaw
+// acceleration 284 rad/s²): far more twist than the soles' friction can give. Each face's
+// yaw moment stays within μ r f_z (Coulomb friction at its farthest support corner), and
+// reaches it: the bound binds.
+TEST(QpModeStanding, ATwistingReferenceKeepsEachSolesYawMomentWithinFriction) {
+  auto model = humanFigure();
+  const ModelInfo& info = model->info();
+  const ReferenceFrame stand = standingReference(*model);
+  const double dt = 1e-3, amplitude = 0.8, omega = 2.0 * 3.14159265358979323846 * 3.0;
+  DynamicsFilter filter(*model, qpOptions(dt), qp_engines::factory(QpSolverSettings{}.engine));
+  filter.reset(stand);
+  PhysicsCheck check;
+  std::uint32_t status_union = 0;
+  ReferenceFrame ref = stand;
+  for (int k = 0; k < 1000; ++k) {
+    const double t = k * dt, yaw = amplitude * std::sin(omega * t);
+    ref.time_s = t;
+    const Eigen::Quaterniond turn(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+    ref.q[3] = turn.w();  // the standing base is level: its orientation is the turn alone
+    ref.q[4] = turn.x();
+    ref.q[5] = turn.y();
+    ref.q[6] = turn.z();
+    ref.v.setZero();
+    ref.vdot.setZero();
+    ref.v[5] = amplitude * omega * std::cos(omega * t);
+    ref.vdot[5] = -amplitude * omega * omega * std::sin(omega * t);
+    const FilterOutput& out = filter.step(ref);
+    status_union |= out.status;
+    check.add(filter, out, info, model->environment().ground.friction);
+  }
+  RecordProperty("max_torsion_ratio", sci(check.max_torsion_ratio));
+  EXPECT_EQ(status_union & (kStatusQpFallback | kStatusNonFinite), 0u) << "status union " << status_union;
+  EXPECT_GT(check.contact_ticks, 900);
+  EXPECT_LE(check.max_torsion_excess, 1e-6);
+  EXPECT_GT(check.max_torsion_ratio, 0.99) << "the twist must reach the bound for the check to mean anything";
+  EXPECT_LE(check.max_friction_excess, 1e-6);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -346,6 +395,7 @@ TEST(QpModeClip, KickInQpModeKeepsEveryContactPhysicalWherePaperModePulls) {
   EXPECT_LE(q.check.max_friction_excess, 1e-6);
   EXPECT_GT(q.check.cop_checked, 0);
   EXPECT_LE(q.check.max_cop_excess_m, 1e-6);
+  EXPECT_LE(q.check.max_torsion_excess, 1e-6);
   EXPECT_LE(q.check.max_torque_excess, 1e-6);
   EXPECT_LE(q.check.max_base_residual_n, 1e-8 * weight);
   EXPECT_EQ(q.counters.ticks, static_cast<std::uint64_t>(q.ticks));
