@@ -302,13 +302,13 @@ def limit_metrics(t, contacts_csv, model, mu):
             out_y = (c["cop_y"] < c["support_y_min"] - tol) | (c["cop_y"] > c["support_y_max"] + tol)
             bad = flat & loaded & (out_x | ((c["kind"] == "face") & out_y))
             m["frames_cop_outside"] = int(len(np.unique(c["time"][bad])))
-            # Torsion of faces: Coulomb friction at the support's farthest corner bounds the
-            # yaw moment about the normal by μ r f_n (a necessary condition).
+            # Torsion of edges and faces: Coulomb friction at the support's farthest point
+            # bounds the moment about the normal by μ r f_n (a necessary condition).
             mom = np.column_stack([c["mx"], c["my"], c["mz"]])
             twist = np.abs(np.sum(mom * n, axis=1))
             r = np.hypot(np.maximum(np.abs(c["support_x_min"]), np.abs(c["support_x_max"])),
                          np.maximum(np.abs(c["support_y_min"]), np.abs(c["support_y_max"])))
-            twisted = (c["kind"] == "face") & (twist > mu * r * np.maximum(fn, 0) + tol)
+            twisted = (c["kind"] != "point") & (twist > mu * r * np.maximum(fn, 0) + tol)
             m["frames_torsion_violation"] = int(len(np.unique(c["time"][twisted])))
         m.setdefault("frames_cop_outside", 0)
         m.setdefault("frames_torsion_violation", 0)
@@ -609,7 +609,7 @@ MODE_ROWS = [
     ("frames_pulling_contact", "frames with a pulling contact", "{:d}"),
     ("frames_friction_violation", "frames with a force outside its friction cone", "{:d}"),
     ("frames_cop_outside", "frames with a CoP outside its support", "{:d}"),
-    ("frames_torsion_violation", "frames with a sole's yaw moment beyond its friction", "{:d}"),
+    ("frames_torsion_violation", "frames with a contact's twist beyond its friction", "{:d}"),
     ("frames_torque_over_limit", "frames with a torque beyond its limit", "{:d}"),
     ("min_normal_force_n", "min contact normal force (N)", "{:.1f}"),
     ("max_normal_force_n", "max contact normal force (N)", "{:.1f}"),

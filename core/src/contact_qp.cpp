@@ -258,6 +258,16 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       qp.C(row, my) = 1.0;   //  m_y + x_min f_z ≤ 0
       qp.C(row, fz) = lb.cop_min.x();
       qp.u[row++] = 0.0;
+      // Torsion: Coulomb friction at the support's points twists an edge or a face by at
+      // most μ f_z times the farthest point's distance from the link origin (a necessary
+      // bound: the tangential force shares the same friction).
+      const int mz = my + 1;
+      qp.C(row, mz) = 1.0;   //  m_z − μ r f_z ≤ 0
+      qp.C(row, fz) = -lb.mu * lb.torsion_arm_m;
+      qp.u[row++] = 0.0;
+      qp.C(row, mz) = -1.0;  // −m_z − μ r f_z ≤ 0
+      qp.C(row, fz) = -lb.mu * lb.torsion_arm_m;
+      qp.u[row++] = 0.0;
     }
     if (link.kind == ContactKind::kFace) {
       const int mx = fx + 3;
@@ -266,16 +276,6 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       qp.u[row++] = 0.0;
       qp.C(row, mx) = -1.0;  // −m_x + y_min f_z ≤ 0
       qp.C(row, fz) = lb.cop_min.y();
-      qp.u[row++] = 0.0;
-      // Torsion: Coulomb friction at the support's points twists the face by at most
-      // μ f_z times the farthest point's distance from the link origin (a necessary bound:
-      // the tangential force shares the same friction).
-      const int mz = fx + 5;
-      qp.C(row, mz) = 1.0;   //  m_z − μ r f_z ≤ 0
-      qp.C(row, fz) = -lb.mu * lb.torsion_arm_m;
-      qp.u[row++] = 0.0;
-      qp.C(row, mz) = -1.0;  // −m_z − μ r f_z ≤ 0
-      qp.C(row, fz) = -lb.mu * lb.torsion_arm_m;
       qp.u[row++] = 0.0;
     }
     slot += link.num_axes;
@@ -419,16 +419,16 @@ std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
     if (std::hypot(fx, fy) > lb.mu * std::max(fz, 0.0) + kForceTolerance)
       violated |= kQpFamilyFriction;
     if (lb.num_axes >= 5) {
-      const double my = tau_C[lb.row + (lb.num_axes == 6 ? 4 : 3)];
-      if (-my < lb.cop_min.x() * fz - kForceTolerance || -my > lb.cop_max.x() * fz + kForceTolerance)
+      const int my = lb.row + (lb.num_axes == 6 ? 4 : 3);
+      if (-tau_C[my] < lb.cop_min.x() * fz - kForceTolerance || -tau_C[my] > lb.cop_max.x() * fz + kForceTolerance)
         violated |= kQpFamilyCop;
+      if (std::abs(tau_C[my + 1]) > lb.mu * lb.torsion_arm_m * std::max(fz, 0.0) + kForceTolerance)
+        violated |= kQpFamilyFriction;
     }
     if (lb.num_axes == 6) {
       const double mx = tau_C[lb.row + 3];
       if (mx < lb.cop_min.y() * fz - kForceTolerance || mx > lb.cop_max.y() * fz + kForceTolerance)
         violated |= kQpFamilyCop;
-      if (std::abs(tau_C[lb.row + 5]) > lb.mu * lb.torsion_arm_m * std::max(fz, 0.0) + kForceTolerance)
-        violated |= kQpFamilyFriction;
     }
   }
   for (int j = 0; j < nj_; ++j) {

@@ -75,8 +75,8 @@ struct PhysicsCheck {
   double max_friction_excess = -1e300;  // max ‖f_t‖ − μ f_z (N)
   double max_cop_excess_m = -1e300;  // max distance of a CoP outside its rectangle (m)
   double max_torque_excess = -1e300;  // max |τ_J| − τ_max
-  double max_torsion_excess = -1e300;  // faces: max |m·n| − μ r f_z (N m), r to the farthest corner
-  double max_torsion_ratio = 0.0;      // faces: max |m·n| / (μ r f_z)
+  double max_torsion_excess = -1e300;  // edges, faces: max |m·n| − μ r f_z (N m), r to the farthest point
+  double max_torsion_ratio = 0.0;      // edges, faces: max |m·n| / (μ r f_z)
   double max_base_residual_n = 0.0;
   int contact_ticks = 0;             // ticks with at least one contact
   int cop_checked = 0;               // face/edge contacts whose CoP was checked
@@ -98,13 +98,12 @@ struct PhysicsCheck {
         max_cop_excess_m = std::max(max_cop_excess_m, link->support_min[d] - c.cop_A[d]);
         max_cop_excess_m = std::max(max_cop_excess_m, c.cop_A[d] - link->support_max[d]);
       }
-      if (c.kind == ContactKind::kFace) {
-        const double r = std::hypot(std::max(std::abs(link->support_min.x()), std::abs(link->support_max.x())),
-                                    std::max(std::abs(link->support_min.y()), std::abs(link->support_max.y())));
-        const double twist = std::abs(c.wrench_W.tail<3>().dot(c.n_W));
-        max_torsion_excess = std::max(max_torsion_excess, twist - mu * r * fz);
-        if (fz > 1.0) max_torsion_ratio = std::max(max_torsion_ratio, twist / (mu * r * fz));
-      }
+      // Torsion, about the normal at the link origin (r: the support's farthest point).
+      const double r = std::hypot(std::max(std::abs(link->support_min.x()), std::abs(link->support_max.x())),
+                                  std::max(std::abs(link->support_min.y()), std::abs(link->support_max.y())));
+      const double twist = std::abs(c.wrench_W.tail<3>().dot(c.n_W));
+      max_torsion_excess = std::max(max_torsion_excess, twist - mu * r * fz);
+      if (fz > 1.0) max_torsion_ratio = std::max(max_torsion_ratio, twist / (mu * r * fz));
       ++cop_checked;
     }
     if (out.num_contacts > 0) ++contact_ticks;

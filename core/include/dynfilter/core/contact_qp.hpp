@@ -14,8 +14,8 @@
 ///              f_z ≥ f_z,prev − rate dt           (no jerk: unloading rate, held links)
 ///              d_kᵀ f_t ≤ μ cos(π/K) f_z, k < K   (inscribed friction pyramid, per link)
 ///              CoP of faces and edges inside the support rectangle (minus a margin)
-///              |m_z| ≤ μ r f_z                    (faces: torsion; r = the farthest support
-///                                                  corner's distance from the link origin)
+///              |m_z| ≤ μ r f_z                    (edges, faces: torsion; r = the farthest
+///                                                  support point's distance from the origin)
 ///              |τ_J| ≤ τ_max                      (URDF effort)
 ///              v̇_J within the bounds that keep q and q̇ in their limits over the tick
 ///
@@ -163,7 +163,7 @@ class ContactQp {
     double mu = 0.0;
     double f_min = 0.0, f_max = 0.0;
     Eigen::Vector2d cop_min = Eigen::Vector2d::Zero(), cop_max = Eigen::Vector2d::Zero();
-    double torsion_arm_m = 0.0;  // faces: |m_z| ≤ μ · this · f_z
+    double torsion_arm_m = 0.0;  // edges, faces: |m_z| ≤ μ · this · f_z
   };
   std::vector<LinkBounds> link_bounds_;
   int num_links_ = 0;
