@@ -50,7 +50,8 @@ SUMMARY_COLUMNS = [
     ("name", "clip"), ("status", "status"), ("frames", "frames"),
     ("duration_s", "motion (s)"), ("reseeds", "re-seeds"),
     ("frames_pulling_contact", "pulling"), ("frames_friction_violation", "friction"),
-    ("frames_cop_outside", "CoP"), ("frames_torque_over_limit", "torque limit"),
+    ("frames_cop_outside", "CoP"), ("frames_torsion_violation", "torsion"),
+    ("frames_torque_over_limit", "torque limit"),
     ("frames_qp_fallback", "QP fallback"), ("joint_rms_rad", "joint RMS (rad)"),
     ("base_rms_m", "base RMS (m)"), ("max_base_residual_n", "max base residual (N)"),
     ("wall_s", "wall (s)"), ("error", "error"),
@@ -201,6 +202,11 @@ def clip_metrics(out: dict, model, friction: float) -> dict:
     out_y = (cop[:, 1] < lo[:, 1] - _TOL) | (cop[:, 1] > hi[:, 1] + _TOL)
     bad = (kind != 3) & (c["normal_force_n"] > 1e-9) & (out_x | ((kind == 6) & out_y))
     m["frames_cop_outside"] = int(len(np.unique(c["time"][bad])))
+    # Twist of edges and faces about the normal beyond μ r f_n (r: the support's farthest point).
+    twist = np.abs(np.sum(c["wrench_W"][:, 3:] * n, axis=1))
+    r = np.hypot(np.maximum(np.abs(lo[:, 0]), np.abs(hi[:, 0])), np.maximum(np.abs(lo[:, 1]), np.abs(hi[:, 1])))
+    twisted = (kind != 3) & (twist > friction * r * np.maximum(fn, 0) + _TOL)
+    m["frames_torsion_violation"] = int(len(np.unique(c["time"][twisted])))
     limit = np.asarray(model.tau_max)
     m["frames_torque_over_limit"] = int(np.count_nonzero(np.any(np.abs(out["tau"]) > limit + _TOL, axis=1)))
     m["frames_qp_fallback"] = int(np.count_nonzero(status & 256))

@@ -37,8 +37,8 @@ def test_batch_two_workers_reports_failures_and_skips_what_is_done(tmp_path):
     for name in ("walk", "kick", "squat"):
         m = paper_results.metrics_of(out / name / "filtered.csv",
                                      out / name / "filtered.contacts.csv", pm)
-        for key in ("frames_pulling_contact", "frames_friction_violation",
-                    "frames_cop_outside", "frames_torque_over_limit", "frames_qp_fallback"):
+        for key in ("frames_pulling_contact", "frames_friction_violation", "frames_cop_outside",
+                    "frames_torsion_violation", "frames_torque_over_limit", "frames_qp_fallback"):
             assert int(rows[name][key]) == m[key], (name, key)
         # Tracking RMS over the joints only (paper_results' joint_rms_rad has the base too).
         t = paper_results.read_table(out / name / "filtered.csv")
