@@ -120,15 +120,15 @@ TEST_P(ClosedLoopOnDart, TheRobotFollowsTheSquatOnItsOwnFeet) {
 }
 
 // Why the settings: with DART's default contact the feet rock. Before the QP mode bounded a
-// sole's yaw moment by friction (2026-11-28) the robot fell (tilt ~2 rad within 4 s); it now
-// stands, but tilts far more than with the simulator's softer contact.
+// contact's twist by friction (2026-11-28) the robot fell (tilt ~2 rad within 4 s); it now
+// stands, but tilts about four times as far as with the simulator's softer contact.
 TEST_F(ClosedLoopOnDart, WithDartsDefaultContactsTheFeetRock) {
   const LoopResult stiff = runClosedLoop(FilterMode::kQp, 4.0, "dart", 1);
   const processes::RobotEngineSettings engine = processes::useAsRobot("dart");
   const LoopResult soft = runClosedLoop(FilterMode::kQp, 4.0, "dart", engine.substeps);
   RecordProperty("default_max_tilt_rad", std::to_string(stiff.max_tilt_rad));
   RecordProperty("robot_settings_max_tilt_rad", std::to_string(soft.max_tilt_rad));
-  EXPECT_GT(stiff.max_tilt_rad, 3.0 * soft.max_tilt_rad) << "measured 0.044 against 0.0059 rad";
+  EXPECT_GT(stiff.max_tilt_rad, 2.0 * soft.max_tilt_rad) << "measured 0.025 against 0.0059 rad";
 }
 
 INSTANTIATE_TEST_SUITE_P(Modes, ClosedLoopOnDart, testing::Values(FilterMode::kPaper, FilterMode::kQp),
