@@ -137,6 +137,7 @@ COLUMNS = [
     ("frames_cop_outside", "CoP", "{}"),
     ("frames_torsion_violation", "torsion", "{}"),
     ("frames_torque_over_limit", "torque", "{}"),
+    ("frames_pivoting", "pivoting", "{}"),
     ("max_base_residual_rel_bw", "Eq. 12 base / weight", "{:.1e}"),
 ]
 

@@ -295,6 +295,8 @@ def limit_metrics(t, contacts_csv, model, mu):
         fn = np.sum(f * n, axis=1)
         ft = np.linalg.norm(f - fn[:, None] * n, axis=1)
         m["frames_friction_violation"] = int(len(np.unique(c["time"][ft > mu * np.maximum(fn, 0) + tol])))
+        # Soles pivoting at friction's twist (QP mode, qp.yaw_slip): physical, counted.
+        m["frames_pivoting"] = int(len(np.unique(c["time"][c["pivot"] != 0]))) if "pivot" in c else 0
         if "support_x_min" in c:
             flat = c["kind"] != "point"
             loaded = c["normal_force_n"] > 1e-9
@@ -313,7 +315,7 @@ def limit_metrics(t, contacts_csv, model, mu):
         m.setdefault("frames_cop_outside", 0)
         m.setdefault("frames_torsion_violation", 0)
     else:
-        m["frames_friction_violation"] = m["frames_cop_outside"] = m["frames_torsion_violation"] = 0
+        m["frames_friction_violation"] = m["frames_cop_outside"] = m["frames_torsion_violation"] = m["frames_pivoting"] = 0
     over = np.zeros(len(t["time"]), dtype=bool)
     for j, limit in model.effort.items():
         if f"{j}.tau" in t:
@@ -623,6 +625,7 @@ MODE_ROWS = [
     ("max_stance_skate_mm", "largest stance-foot skate in the output (mm)", "{:.1f}"),
     ("max_base_jump_mm", "largest per-frame base jump (mm)", "{:.1f}"),
     ("frames_qp_relaxed", "frames answered by a QP relaxation", "{:d}"),
+    ("frames_pivoting", "frames with a sole pivoting at friction's twist", "{:d}"),
     ("frames_qp_fallback", "frames that fell back to the paper solve", "{:d}"),
     ("mean_tick_us", "mean time per tick (µs)", "{:.1f}"),
     ("mean_solve_us", "mean solve time per tick (µs)", "{:.1f}"),

@@ -18,6 +18,8 @@ constexpr double kForceTolerance = 1e-6;  // N and N m: checks of the inequality
 constexpr double kAccelTolerance = 1e-6;  // m/s², rad/s²
 constexpr double kGravity = 9.81;
 constexpr double kPi = 3.14159265358979323846;
+// A held link starts to pivot when its last twist was this close to friction's bound.
+constexpr double kPivotOnset = 0.95;
 
 double finiteOr(double x, double fallback) { return std::isfinite(x) ? x : fallback; }
 
@@ -262,6 +264,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       // most μ f_z times the farthest point's distance from the link origin (a necessary
       // bound: the tangential force shares the same friction).
       const int mz = my + 1;
+      lb.torsion_row = row;
       qp.C(row, mz) = 1.0;   //  m_z − μ r f_z ≤ 0
       qp.C(row, fz) = -lb.mu * lb.torsion_arm_m;
       qp.u[row++] = 0.0;
@@ -278,6 +281,11 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       qp.C(row, fz) = lb.cop_min.y();
       qp.u[row++] = 0.0;
     }
+    lb.yaw_slip = 0;
+    lb.pivot_from_rest = false;
+    if (options_.yaw_slip && link.kind != ContactKind::kPoint && link.yaw_slip != 0) {
+      pivot(qp, i, link.yaw_slip, /*from_rest=*/false, H_C, u_C);
+    }
     slot += link.num_axes;
   }
 
@@ -285,7 +293,9 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   std::uint64_t signature = 1469598103934665603ull ^ static_cast<std::uint64_t>(nc);
   for (int i = 0; i < num_links; ++i) {
     const VirtualLink& link = links[i];
-    for (const int value : {link.body, link.object, link.num_axes, link.created_this_tick ? 1 : 0})
+    const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+    const int pivot = lb.yaw_slip * (lb.pivot_from_rest ? 2 : 1);
+    for (const int value : {link.body, link.object, link.num_axes, link.created_this_tick ? 1 : 0, pivot})
       signature = (signature ^ static_cast<std::uint64_t>(value + 2)) * 1099511628211ull;
   }
   if (signature != sc.signature) sc.solver->resetWarmStart();
@@ -317,6 +327,39 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   };
   report.ok = extract();
   report.violated_first = report.violated;
+  bool rows_restored = false;  // the solver's factors are of another problem's rows
+  if (!report.ok && options_.yaw_slip) {
+    // No answer holds every yaw: soles pivot, before any other bound gives way. Only then:
+    // a pivot the answer does not need lets the sole drift in yaw, which nothing restores
+    // (tried as the first attempt: 104 re-seeding ticks over the check matrix against 77).
+    for (int i = 0; i < num_links; ++i) {
+      const VirtualLink& link = links[i];
+      const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+      if (link.kind == ContactKind::kPoint || lb.yaw_slip != 0) continue;
+      // A sole already turning slides on (kinetic friction against the turn); one at rest
+      // starts to turn against the twist it held at the bound.
+      const double yaw_rate = H_C.row(lb.row + lb.num_axes - 1).dot(v);
+      const double bound = lb.mu * lb.torsion_arm_m * std::max(link.normal_force_n, 0.0);
+      if (std::abs(yaw_rate) > kPivotRestRate) {
+        pivot(qp, i, yaw_rate > 0.0 ? -1 : 1, /*from_rest=*/false, H_C, u_C);
+      } else if (!link.created_this_tick && bound > 0.0 && std::abs(link.torsion_n_m) >= kPivotOnset * bound) {
+        pivot(qp, i, link.torsion_n_m > 0.0 ? 1 : -1, /*from_rest=*/true, H_C, u_C);
+      } else {
+        continue;
+      }
+      ++report.pivots_started;
+    }
+    if (report.pivots_started > 0) {
+      solveRelaxedCold(/*bounds_only=*/false);
+      report.ok = extract();
+      if (!report.ok) {  // not the torsion: the links stick, and the bounds give way below
+        for (int i = 0; i < num_links; ++i)
+          if (link_bounds_[static_cast<std::size_t>(i)].yaw_slip != 0 && links[i].yaw_slip == 0) stick(qp, i, H_C, u_C);
+        report.pivots_started = 0;
+        rows_restored = true;
+      }
+    }
+  }
   bool rate_bounded = false;
   for (int i = 0; i < num_links; ++i) {
     const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
@@ -343,7 +386,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       qp.x_upper[nv_ + lb.row + 2] = kQpInfinity;
       qp.x_lower[nv_ + lb.row + 2] = lb.f_min;
     }
-    solveRelaxedCold(/*bounds_only=*/true);
+    solveRelaxedCold(/*bounds_only=*/!rows_restored);
     report.ok = extract();
   }
   if (!report.ok && nc > 0) {
@@ -372,6 +415,53 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     report.ok = acceptable();
   }
   return report;
+}
+
+void ContactQp::pivot(DenseQp& qp, int i, int sign, bool from_rest,
+                      const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+                      const Eigen::Ref<const Eigen::VectorXd>& u_C) {
+  LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+  const int yaw = lb.row + lb.num_axes - 1;  // rz is an edge's and a face's last axis
+  const int fz = nv_ + lb.row + 2, mz = nv_ + yaw;
+  const double sigma = sign > 0 ? 1.0 : -1.0;
+  // The yaw row becomes Coulomb's twist: m_z − σ μ r f_z = 0.
+  qp.A.row(nb_ + yaw).setZero();
+  qp.A(nb_ + yaw, mz) = 1.0;
+  qp.A(nb_ + yaw, fz) = -sigma * lb.mu * lb.torsion_arm_m;
+  qp.b[nb_ + yaw] = 0.0;
+  // The torsion rows: from rest, the body turns against the twist, σ (H_yaw v̇ − u_yaw) ≤ 0;
+  // already turning, the yaw is free.
+  for (const int t : {lb.torsion_row, lb.torsion_row + 1}) {
+    qp.C.row(t).setZero();
+    qp.l[t] = -kQpInfinity;
+    qp.u[t] = kQpInfinity;
+  }
+  if (from_rest) {
+    qp.C.row(lb.torsion_row).head(nv_) = sigma * H_C.row(yaw);
+    qp.u[lb.torsion_row] = sigma * u_C[yaw];
+  }
+  lb.yaw_slip = sign > 0 ? 1 : -1;
+  lb.pivot_from_rest = from_rest;
+}
+
+void ContactQp::stick(DenseQp& qp, int i, const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+                      const Eigen::Ref<const Eigen::VectorXd>& u_C) {
+  LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+  const int yaw = lb.row + lb.num_axes - 1;
+  const int fz = nv_ + lb.row + 2, mz = nv_ + yaw;
+  qp.A.row(nb_ + yaw).setZero();
+  qp.A.row(nb_ + yaw).head(nv_) = H_C.row(yaw);
+  qp.b[nb_ + yaw] = u_C[yaw];
+  for (const int t : {lb.torsion_row, lb.torsion_row + 1}) {
+    const double s = t == lb.torsion_row ? 1.0 : -1.0;  // ±m_z − μ r f_z ≤ 0
+    qp.C.row(t).setZero();
+    qp.C(t, mz) = s;
+    qp.C(t, fz) = -lb.mu * lb.torsion_arm_m;
+    qp.l[t] = -kQpInfinity;
+    qp.u[t] = 0.0;
+  }
+  lb.yaw_slip = 0;
+  lb.pivot_from_rest = false;
 }
 
 // ---- objective tasks of the balance layer (beyond the paper's QP) ----------------------
@@ -407,8 +497,14 @@ std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
   r.noalias() -= H_C.transpose() * tau_C;
   r.tail(nj_) -= tau_J;
   if (r.cwiseAbs().maxCoeff() > equality_tolerance_) violated |= kQpFamilyEquality;
-  for (int i = 0; i < nc; ++i)
-    if (std::abs(H_C.row(i).dot(vdot) - u_C[i]) > kAccelTolerance) violated |= kQpFamilyEquality;
+  for (int i = 0; i < nc; ++i) {
+    bool pivoting = false;  // a pivot's yaw row is not a constraint (checked below)
+    for (int l = 0; l < num_links_; ++l) {
+      const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(l)];
+      pivoting = pivoting || (lb.yaw_slip != 0 && i == lb.row + lb.num_axes - 1);
+    }
+    if (!pivoting && std::abs(H_C.row(i).dot(vdot) - u_C[i]) > kAccelTolerance) violated |= kQpFamilyEquality;
+  }
 
   for (int i = 0; i < num_links_; ++i) {
     const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
@@ -422,8 +518,15 @@ std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
       const int my = lb.row + (lb.num_axes == 6 ? 4 : 3);
       if (-tau_C[my] < lb.cop_min.x() * fz - kForceTolerance || -tau_C[my] > lb.cop_max.x() * fz + kForceTolerance)
         violated |= kQpFamilyCop;
-      if (std::abs(tau_C[my + 1]) > lb.mu * lb.torsion_arm_m * std::max(fz, 0.0) + kForceTolerance)
-        violated |= kQpFamilyFriction;
+      const double twist_bound = lb.mu * lb.torsion_arm_m * std::max(fz, 0.0);
+      if (std::abs(tau_C[my + 1]) > twist_bound + kForceTolerance) violated |= kQpFamilyFriction;
+      if (lb.yaw_slip != 0) {
+        const int yaw = my + 1;
+        if (std::abs(tau_C[yaw] - lb.yaw_slip * twist_bound) > kForceTolerance) violated |= kQpFamilyFriction;
+        if (lb.pivot_from_rest && yaw < nc &&
+            lb.yaw_slip * (H_C.row(yaw).dot(vdot) - u_C[yaw]) > kAccelTolerance)
+          violated |= kQpFamilyFriction;
+      }
     }
     if (lb.num_axes == 6) {
       const double mx = tau_C[lb.row + 3];

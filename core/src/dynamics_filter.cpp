@@ -321,6 +321,11 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
                                           options_.contacts.release_force_n, options_.dt_s, 0.0);
   }
   out_.counters.links_released += static_cast<std::uint64_t>(links_before - links_.size());
+  for (int i = 0; i < out_.num_contacts; ++i) {
+    if (out_.contacts[static_cast<std::size_t>(i)].pivot == 0) continue;
+    ++out_.counters.pivot_ticks;
+    break;
+  }
   out_.time_s = ref.time_s;
   out_.q = q_;
   out_.v = v_;
@@ -391,6 +396,14 @@ std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
                        (report.contacts_released ? 4u : 0u);
   out_.qp_violated = out_.qp_relaxation != 0 ? report.violated_first : report.violated;
   out_.counters.qp_iterations += static_cast<std::uint64_t>(std::max(0, report.info.iterations));
+  // Pivots: a pivoting link's yaw row states the turn it took (Eq. 9 holds on the others).
+  int row = 0;
+  for (int i = 0; i < links_.size(); ++i) {
+    const int sign = report.ok ? contact_qp_->yawSlip(i) : 0;
+    links_.setYawSlip(i, sign);
+    row += links_[i].num_axes;
+    if (sign != 0) u_C[row - 1] = H_C.row(row - 1).dot(vdot_solved_);
+  }
   const std::uint32_t capped =
       report.info.status == QpSolveStatus::kMaxIterations ? kStatusQpIterationLimit : kStatusOk;
   if (report.ok) {

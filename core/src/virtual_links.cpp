@@ -168,6 +168,8 @@ bool VirtualLinkSet::makeLink(const IDynamicsModel& model, const ContactList& ca
   link.releasing = false;
   link.release_elapsed_s = 0.0;
   link.release_start_force_n = 0.0;
+  link.torsion_n_m = 0.0;
+  link.yaw_slip = 0;
   return true;
 }
 
@@ -181,6 +183,7 @@ void VirtualLinkSet::makeFace(int i, const Eigen::Isometry3d& X_BC, const Eigen:
   link.support_max = support_max;
   link.num_axes = constrainedAxes(link.kind, link.axes);
   link.rolling = false;
+  link.yaw_slip = 0;
   link.created_this_tick = true;
 }
 
@@ -194,6 +197,7 @@ void VirtualLinkSet::makeRollingEdge(int i, const Eigen::Isometry3d& X_BC, const
   link.support_max = Eigen::Vector2d(x_max, 0.0);
   link.num_axes = constrainedAxes(link.kind, link.axes);
   link.rolling = true;
+  link.yaw_slip = 0;
   link.created_this_tick = true;
 }
 
@@ -265,12 +269,21 @@ void VirtualLinkSet::assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::Mat
   const Eigen::Ref<const Eigen::VectorXd> v = model.v();
   int row = 0;
   for (int i = 0; i < size_; ++i) {
-    const VirtualLink& link = links_[static_cast<std::size_t>(i)];
+    VirtualLink& link = links_[static_cast<std::size_t>(i)];
     const Eigen::Vector3d& p_BC = link.X_BC.translation();
     model.pointJacobian(link.body, p_BC, J_);
     const Vector6d drift_W = model.pointJacobianDotTimesV(link.body, p_BC);
-    const Eigen::Matrix3d R_AW = link.X_WA.linear().transpose();
     const Eigen::Isometry3d X_WC = model.bodyPose(link.body) * link.X_BC;
+    if (link.yaw_slip != 0) {
+      // A pivot moves the anchor's yaw with the body; it goes on while the body still turns
+      // against the twist friction gives.
+      const Eigen::Matrix3d R_AC = link.X_WA.linear().transpose() * X_WC.linear();
+      const double yaw = std::atan2(R_AC(1, 0) - R_AC(0, 1), R_AC(0, 0) + R_AC(1, 1));
+      link.X_WA.linear() = link.X_WA.linear() * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      const double yaw_rate = link.X_WA.linear().col(2).dot(J_.bottomRows<3>() * v);
+      link.yaw_slip = yaw_rate * link.yaw_slip < -kPivotRestRate ? (yaw_rate > 0.0 ? -1 : 1) : 0;
+    }
+    const Eigen::Matrix3d R_AW = link.X_WA.linear().transpose();
     Vector6d error_A, drift_A;
     error_A.head<3>() = R_AW * (X_WC.translation() - link.X_WA.translation());
     error_A.tail<3>() = logSO3(R_AW * X_WC.linear());
@@ -370,11 +383,13 @@ int VirtualLinkSet::finishTick(const IDynamicsModel& model,
       out.normal_force_n = wrench_A[2];
       out.support_min_A = link.support_min;
       out.support_max_A = link.support_max;
+      out.pivot = link.yaw_slip;
       out.cop_A.setZero();
       if (link.kind != ContactKind::kPoint && wrench_A[2] > 1e-9)
         out.cop_A = Eigen::Vector2d(-wrench_A[4] / wrench_A[2], wrench_A[3] / wrench_A[2]);
     }
     link.normal_force_n = wrench_A[2];
+    link.torsion_n_m = wrench_A[5];
     link.low_force_ticks = wrench_A[2] < low_force_n ? link.low_force_ticks + 1 : 0;
     bool ramp_done = false;
     if (link.releasing) {

@@ -226,8 +226,8 @@ class Parser {
     readMap(e,
             {"accel_weight", "force_weight", "torque_weight", "min_normal_force_n",
              "friction_facets", "cop_margin_m", "liftoff_clearance_m", "release_transition_s",
-             "joint_limit_horizon_s", "joint_limit_max_decel", "enforce_torque_limits", "enforce_joint_limits", "eps_abs",
-             "max_iterations", "warm_start", "engine"},
+             "joint_limit_horizon_s", "joint_limit_max_decel", "enforce_torque_limits", "enforce_joint_limits", "yaw_slip",
+             "eps_abs", "max_iterations", "warm_start", "engine"},
             [&](const std::string& k, const Entry& v) {
               if (k == "accel_weight") q.accel_weight = number(v);
               if (k == "force_weight") q.force_weight = number(v);
@@ -241,6 +241,7 @@ class Parser {
               if (k == "joint_limit_max_decel") q.joint_limit_max_decel = number(v);
               if (k == "enforce_torque_limits") q.enforce_torque_limits = boolean(v);
               if (k == "enforce_joint_limits") q.enforce_joint_limits = boolean(v);
+              if (k == "yaw_slip") q.yaw_slip = boolean(v);
               if (k == "eps_abs") q.solver.eps_abs = number(v);
               if (k == "max_iterations") q.solver.max_iterations = integer(v);
               if (k == "warm_start") q.solver.warm_start = boolean(v);

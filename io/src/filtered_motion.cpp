@@ -218,7 +218,7 @@ std::vector<std::string> FilteredMotionWriter::mainColumns(const ModelInfo& info
 std::vector<std::string> FilteredMotionWriter::contactColumns() {
   return {"time", "index", "body", "object", "kind", "px", "py", "pz", "nx", "ny", "nz", "fx",
           "fy", "fz", "mx", "my", "mz", "normal_force_n", "cop_x", "cop_y",
-          "support_x_min", "support_x_max", "support_y_min", "support_y_max"};
+          "support_x_min", "support_x_max", "support_y_min", "support_y_max", "pivot"};
 }
 
 void FilteredMotionWriter::append(const FilterOutput& out) {
@@ -286,6 +286,8 @@ void FilteredMotionWriter::append(const FilterOutput& out) {
       appendValue(r, c.support_max_A.x());
       appendValue(r, c.support_min_A.y());
       appendValue(r, c.support_max_A.y());
+      r += ',';
+      detail::appendInteger(r, c.pivot);
       r += '\n';
     }
     s.contacts_file.write(r);

@@ -35,7 +35,7 @@ py::dict countersDict(const FilterCounters& c) {
                   py::arg("reseeds") = c.reseeds, py::arg("invalid_references") = c.invalid_references,
                   py::arg("links_released") = c.links_released, py::arg("qp_solves") = c.qp_solves,
                   py::arg("qp_fallbacks") = c.qp_fallbacks, py::arg("qp_relaxed") = c.qp_relaxed,
-                  py::arg("qp_iterations") = c.qp_iterations);
+                  py::arg("qp_iterations") = c.qp_iterations, py::arg("pivot_ticks") = c.pivot_ticks);
 }
 
 // Growing row-major table of one quantity: rows × width doubles.
@@ -94,6 +94,7 @@ class Recorder {
       contact_body_.push_back(k.body);
       contact_object_.push_back(k.object);
       contact_kind_.push_back(static_cast<int>(k.kind));
+      contact_pivot_.push_back(k.pivot);
       p_.add(k.p_WC.data());
       n_.add(k.n_W.data());
       wrench_.add(k.wrench_W.data());
@@ -129,6 +130,7 @@ class Recorder {
     c["body"] = toArray(contact_body_);
     c["object"] = toArray(contact_object_);
     c["kind"] = toArray(contact_kind_);
+    c["pivot"] = toArray(contact_pivot_);
     c["p_WC"] = p_.array(false);
     c["n_W"] = n_.array(false);
     c["wrench_W"] = wrench_.array(false);
@@ -148,7 +150,7 @@ class Recorder {
   std::vector<int> num_contacts_, reseed_reason_, qp_status_, qp_iterations_;
   std::vector<std::int64_t> contact_row_;
   Column contact_time_;
-  std::vector<int> contact_body_, contact_object_, contact_kind_;
+  std::vector<int> contact_body_, contact_object_, contact_kind_, contact_pivot_;
   Column p_, n_, wrench_, cop_, support_min_, support_max_;
   Column normal_force_;
 };
@@ -179,7 +181,7 @@ py::dict outputDict(const FilterOutput& out) {
                              py::arg("n_W") = Eigen::Vector3d(k.n_W),
                              py::arg("wrench_W") = Vector6d(k.wrench_W),
                              py::arg("normal_force_n") = k.normal_force_n,
-                             py::arg("cop_A") = Eigen::Vector2d(k.cop_A)));
+                             py::arg("cop_A") = Eigen::Vector2d(k.cop_A), py::arg("pivot") = k.pivot));
   }
   d["contacts"] = contacts;
   d["counters"] = countersDict(out.counters);

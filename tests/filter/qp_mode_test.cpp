@@ -306,6 +306,76 @@ TEST(QpModeStanding, ATwistingReferenceKeepsEachSolesYawMomentWithinFriction) {
   EXPECT_LE(check.max_friction_excess, 1e-6);
 }
 
+// A box (0.2 × 0.1 × 0.05 m, 3 kg, I_zz 0.0125 kg m²) lying on the ground and spinning at
+// 5 rad/s about the vertical: holding its face's yaw would stop it within the Baumgarte
+// damping (500 rad/s², 6.25 N m of twist); friction gives at most μ r m g = 2.63 N m
+// (r = 0.112 m, the farthest corner). With QpModeOptions::yaw_slip the face pivots: its
+// twist is −sign(ω) μ r m g, so the box slows at the closed form μ r m g / I_zz = 211 rad/s²
+// and stops after ω₀ I_zz / (μ r m g) = 23.7 ms, then holds again (the last tick's overshoot,
+// at most 211 rad/s² × dt, damped out by the link's stabilisation). Without pivots no answer
+// holds the face, and the solve relaxes until the contact lets go.
+TEST(QpModePivot, ASpinningBoxSlowsAtFrictionsTwistThenHolds) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::testModelPath("floating_box.urdf")),
+                               ModelOptions{});
+  const ModelInfo& info = model->info();
+  const double mu = model->environment().ground.friction;
+  const double mass = 3.0, izz = 0.0125, r = std::hypot(0.1, 0.05), spin = 5.0, dt = 1e-3;
+  const double decel = mu * r * mass * kGravity / izz;
+  ReferenceFrame rest(info.nq, info.nv);
+  rest.q << 0, 0, 0, 1, 0, 0, 0;
+  rest.q[2] = standingBaseHeight(*model, rest.q);
+  Eigen::VectorXd v_spin = Eigen::VectorXd::Zero(info.nv);
+  v_spin[5] = spin;
+  for (const bool yaw_slip : {true, false}) {
+    SCOPED_TRACE(yaw_slip ? "pivots" : "no pivots");
+    FilterOptions options = qpOptions(dt);
+    options.qp.yaw_slip = yaw_slip;
+    options.balance.enabled = false;
+    DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
+    filter.reset(rest);
+    for (int k = 0; k < 5; ++k) filter.step(rest);  // the face link forms and settles
+    ASSERT_EQ(filter.links().size(), 1);
+    ASSERT_EQ(filter.links()[0].kind, ContactKind::kFace);
+    ASSERT_TRUE(filter.setMeasuredState(filter.output().q, v_spin));
+    double omega = spin, max_decel_error = 0.0, max_twist_gap = 0.0, stopped_at_s = -1.0;
+    double max_spin_after_stop = 0.0, max_twist_ratio_after_stop = 0.0;
+    std::uint64_t relaxed_before = filter.output().counters.qp_relaxed;
+    for (int k = 0; k < 200; ++k) {
+      const FilterOutput& out = filter.step(rest);
+      if (!yaw_slip) break;
+      ASSERT_EQ(out.status & (kStatusQpFallback | kStatusQpRelaxed | kStatusReseeded), 0u) << "tick " << k;
+      ASSERT_EQ(out.num_contacts, 1) << "tick " << k;
+      const ContactOutput& c = out.contacts[0];
+      const double twist = c.wrench_W.tail<3>().dot(c.n_W), bound = mu * r * c.normal_force_n;
+      if (stopped_at_s < 0.0 && c.pivot != 0) {
+        EXPECT_EQ(c.pivot, -1) << "tick " << k << ": the twist opposes the turn";
+        max_twist_gap = std::max(max_twist_gap, std::abs(twist - c.pivot * bound));
+        max_decel_error = std::max(max_decel_error, std::abs(out.vdot[5] + decel) / decel);
+        EXPECT_NEAR(c.normal_force_n, mass * kGravity, 1e-6 * mass * kGravity) << "tick " << k;
+      } else if (stopped_at_s < 0.0) {
+        stopped_at_s = (k + 1) * dt;
+      } else {
+        max_spin_after_stop = std::max(max_spin_after_stop, std::abs(out.v[5]));
+        max_twist_ratio_after_stop = std::max(max_twist_ratio_after_stop, std::abs(twist) / bound);
+      }
+      omega = out.v[5];
+    }
+    if (!yaw_slip) {
+      EXPECT_GT(filter.output().counters.qp_relaxed, relaxed_before) << "holding the face has no answer";
+      EXPECT_EQ(filter.output().counters.pivot_ticks, 0u);
+      continue;
+    }
+    RecordProperty("stopped_at_s", sci(stopped_at_s));
+    EXPECT_LE(max_twist_gap, 1e-6) << "a pivot's twist is friction's bound";
+    EXPECT_LE(max_decel_error, 1e-6) << "the box slows at mu r m g / I_zz";
+    EXPECT_NEAR(stopped_at_s, spin / decel, 2.5 * dt);
+    EXPECT_LE(max_spin_after_stop, decel * dt) << "no more than the last tick's overshoot";
+    EXPECT_LT(std::abs(omega), 1e-3) << "the face holds once the turn stops";
+    EXPECT_LE(max_twist_ratio_after_stop, 1.0 + 1e-9);
+    EXPECT_GE(filter.output().counters.pivot_ticks, 20u);
+  }
+}
+
 // ---------------------------------------------------------------------------------------
 // A retargeted CMU clip: paper mode pulls on the ground, QP mode never does
 

@@ -16,10 +16,15 @@
 ///              CoP of faces and edges inside the support rectangle (minus a margin)
 ///              |m_z| ≤ μ r f_z                    (edges, faces: torsion; r = the farthest
 ///                                                  support point's distance from the origin)
+///              a pivoting edge or face (VirtualLink::yaw_slip = σ ≠ 0; QpModeOptions::yaw_slip)
+///              drops its yaw row for m_z = σ μ r f_z (Coulomb's twist while it turns)
 ///              |τ_J| ≤ τ_max                      (URDF effort)
 ///              v̇_J within the bounds that keep q and q̇ in their limits over the tick
 ///
-/// When that QP fails, it is relaxed (ContactQpReport): at most three solves a tick, each
+/// When that QP fails, edges and faces start to pivot (one re-solve): a link already turning
+/// with σ against its turn; one at rest whose last twist sat at the bound with σ that
+/// twist's sign, turning only against it, σ (H_yaw v̇ − u_yaw) ≤ 0. If that fails too they
+/// hold again, and the QP is relaxed (ContactQpReport): at most four solves a tick, each
 /// capped at QpSolverSettings::max_iterations; the caller falls back to the paper solve
 /// only when even the last relaxation fails.
 ///
@@ -71,6 +76,7 @@ struct ContactQpReport {
   bool ramps_dropped = false;
   /// 2. every virtual link released (the contacts break): the caller must release them.
   bool contacts_released = false;
+  int pivots_started = 0;  ///< links that started to pivot this tick (before the relaxations)
   std::uint32_t violated_first = kQpFamilyNone;  ///< families the first (full) attempt violated
 };
 
@@ -131,6 +137,10 @@ class ContactQp {
                       const Eigen::Ref<const Eigen::VectorXd>& tau_C,
                       const Eigen::Ref<const Eigen::VectorXd>& tau_J) const;
 
+  /// Link @p i's pivot in the last solve's answer: 0 (its yaw row held) or the sign σ of
+  /// its twist m_z = σ μ r f_z (VirtualLink::yaw_slip).
+  int yawSlip(int i) const { return i < num_links_ ? link_bounds_[static_cast<std::size_t>(i)].yaw_slip : 0; }
+
   /// Joint acceleration bounds of the last solve (dim nj; ±kQpInfinity when unbounded).
   const Eigen::VectorXd& jointAccelLower() const { return accel_lo_; }
   const Eigen::VectorXd& jointAccelUpper() const { return accel_hi_; }
@@ -164,7 +174,16 @@ class ContactQp {
     double f_min = 0.0, f_max = 0.0;
     Eigen::Vector2d cop_min = Eigen::Vector2d::Zero(), cop_max = Eigen::Vector2d::Zero();
     double torsion_arm_m = 0.0;  // edges, faces: |m_z| ≤ μ · this · f_z
+    int torsion_row = 0;         // first of the two torsion rows in C
+    int yaw_slip = 0;            // pivoting: m_z = yaw_slip · μ r f_z, the yaw row dropped
+    bool pivot_from_rest = false;  // ... and the yaw acceleration opposes the twist
   };
+  // Makes link @p i pivot in qp (see the file comment); rows of H_C, u_C for the sign test.
+  void pivot(DenseQp& qp, int i, int sign, bool from_rest, const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+             const Eigen::Ref<const Eigen::VectorXd>& u_C);
+  // Undoes pivot(): link @p i's yaw row and torsion rows as built.
+  void stick(DenseQp& qp, int i, const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+             const Eigen::Ref<const Eigen::VectorXd>& u_C);
   std::vector<LinkBounds> link_bounds_;
   int num_links_ = 0;
   double equality_tolerance_ = 0.0;  // N, from the body weight

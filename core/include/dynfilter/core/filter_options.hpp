@@ -105,6 +105,10 @@ struct QpModeOptions {
   double joint_limit_max_decel = 50.0;
   bool enforce_torque_limits = true;
   bool enforce_joint_limits = true;
+  /// Edge and face links pivot about their normal when holding their yaw needs more twist
+  /// than friction gives (|m_z| ≤ μ r f_z): the yaw row gives way and the twist sits at
+  /// the bound, opposing the pivot (Coulomb), until the pivot stops.
+  bool yaw_slip = true;
   QpSolverSettings solver;
 };
 

@@ -64,6 +64,7 @@ struct FilterCounters {
   std::uint64_t qp_solves = 0;            ///< QP mode: QPs solved and accepted
   std::uint64_t qp_fallbacks = 0;         ///< QP mode: ticks that fell back to paper mode
   std::uint64_t qp_relaxed = 0;           ///< QP mode: ticks answered by a relaxation
+  std::uint64_t pivot_ticks = 0;          ///< QP mode: ticks with a sole pivoting (ContactOutput::pivot)
   std::uint64_t qp_iterations = 0;        ///< QP mode: total solver iterations
 };
 
@@ -84,6 +85,9 @@ struct ContactOutput {
   /// lie (zero for a point; an edge's along x only).
   Eigen::Vector2d support_min_A = Eigen::Vector2d::Zero();
   Eigen::Vector2d support_max_A = Eigen::Vector2d::Zero();
+  /// Edges, faces (QP mode): 0 while the link holds its yaw; ±1 while it pivots about n_W,
+  /// the sign σ of its twist wrench·n = σ μ r f_n at friction's bound (QpModeOptions::yaw_slip).
+  int pivot = 0;
 };
 
 struct FilterOutput {

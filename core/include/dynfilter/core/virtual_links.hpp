@@ -33,6 +33,9 @@
 
 namespace dynfilter {
 
+/// A link's sole turning about its normal faster than this (rad/s) is sliding, not held.
+constexpr double kPivotRestRate = 1e-4;
+
 struct VirtualLink {
   int body = -1;
   int object = kGroundObject;
@@ -57,6 +60,12 @@ struct VirtualLink {
   double release_start_force_n = 0.0;
   /// The sole rolls with the reference (heel-off): no upgrade to a face while set.
   bool rolling = false;
+  /// Edges, faces: the twist about A's z of the last solve (N m).
+  double torsion_n_m = 0.0;
+  /// Edges, faces (QP mode): the link pivots about A's z. 0: the yaw row holds (sticks);
+  /// ±1: the sign of the twist m_z = ±μ r f_z friction gives while the body turns the
+  /// other way. Set by the solve; kept while the pivot goes on; the anchor's yaw follows.
+  int yaw_slip = 0;
 };
 
 /// Indices of the constrained axes of a link kind, in A's [x, y, z, rx, ry, rz].
@@ -100,11 +109,15 @@ class VirtualLinkSet {
                        double x_max);
   /// Sets or clears link @p i's rolling flag (VirtualLink::rolling).
   void setRolling(int i, bool rolling) { links_[static_cast<std::size_t>(i)].rolling = rolling; }
+  /// Sets link @p i's pivot (VirtualLink::yaw_slip: −1, 0 or +1).
+  void setYawSlip(int i, int sign) { links_[static_cast<std::size_t>(i)].yaw_slip = sign; }
   /// Total constrained rows N_C.
   int numRows() const;
 
   /// Fills the rows of Eq. 9 with Baumgarte stabilisation:
   /// H_C (N_C × nv) and u_C = θ̈_C,desired − Ḣ_C v (N_C), with θ̈_C,desired = −kd θ̇_C − kp e.
+  /// A pivoting link (yaw_slip ≠ 0) first moves its anchor's yaw to its body's, and keeps
+  /// pivoting only while its body still turns against the twist (else it sticks again).
   /// @param H_C, u_C at least numRows() rows; only the top numRows() are written.
   void assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::MatrixXd> H_C,
                 Eigen::Ref<Eigen::VectorXd> u_C);
