@@ -260,17 +260,10 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       qp.C(row, my) = 1.0;   //  m_y + x_min f_z ≤ 0
       qp.C(row, fz) = lb.cop_min.x();
       qp.u[row++] = 0.0;
-      // Torsion: Coulomb friction at the support's points twists an edge or a face by at
-      // most μ f_z times the farthest point's distance from the link origin (a necessary
-      // bound: the tangential force shares the same friction).
-      const int mz = my + 1;
+      // Torsion (setTorsionRows).
       lb.torsion_row = row;
-      qp.C(row, mz) = 1.0;   //  m_z − μ r f_z ≤ 0
-      qp.C(row, fz) = -lb.mu * lb.torsion_arm_m;
-      qp.u[row++] = 0.0;
-      qp.C(row, mz) = -1.0;  // −m_z − μ r f_z ≤ 0
-      qp.C(row, fz) = -lb.mu * lb.torsion_arm_m;
-      qp.u[row++] = 0.0;
+      setTorsionRows(qp, lb);
+      row += 2;
     }
     if (link.kind == ContactKind::kFace) {
       const int mx = fx + 3;
@@ -328,6 +321,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   report.ok = extract();
   report.violated_first = report.violated;
   bool rows_restored = false;  // the solver's factors are of another problem's rows
+  int pivots_started = 0;
   if (!report.ok && options_.yaw_slip) {
     // No answer holds every yaw: soles pivot, before any other bound gives way. Only then:
     // a pivot the answer does not need lets the sole drift in yaw, which nothing restores
@@ -338,7 +332,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       if (link.kind == ContactKind::kPoint || lb.yaw_slip != 0) continue;
       // A sole already turning slides on (kinetic friction against the turn); one at rest
       // starts to turn against the twist it held at the bound.
-      const double yaw_rate = H_C.row(lb.row + lb.num_axes - 1).dot(v);
+      const double yaw_rate = H_C.row(yawRow(lb)).dot(v);
       const double bound = lb.mu * lb.torsion_arm_m * std::max(link.normal_force_n, 0.0);
       if (std::abs(yaw_rate) > kPivotRestRate) {
         pivot(qp, i, yaw_rate > 0.0 ? -1 : 1, /*from_rest=*/false, H_C, u_C);
@@ -347,15 +341,15 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       } else {
         continue;
       }
-      ++report.pivots_started;
+      ++pivots_started;
     }
-    if (report.pivots_started > 0) {
+    if (pivots_started > 0) {
       solveRelaxedCold(/*bounds_only=*/false);
       report.ok = extract();
       if (!report.ok) {  // not the torsion: the links stick, and the bounds give way below
         for (int i = 0; i < num_links; ++i)
           if (link_bounds_[static_cast<std::size_t>(i)].yaw_slip != 0 && links[i].yaw_slip == 0) stick(qp, i, H_C, u_C);
-        report.pivots_started = 0;
+        pivots_started = 0;
         rows_restored = true;
       }
     }
@@ -421,7 +415,7 @@ void ContactQp::pivot(DenseQp& qp, int i, int sign, bool from_rest,
                       const Eigen::Ref<const Eigen::MatrixXd>& H_C,
                       const Eigen::Ref<const Eigen::VectorXd>& u_C) {
   LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
-  const int yaw = lb.row + lb.num_axes - 1;  // rz is an edge's and a face's last axis
+  const int yaw = yawRow(lb);
   const int fz = nv_ + lb.row + 2, mz = nv_ + yaw;
   const double sigma = sign > 0 ? 1.0 : -1.0;
   // The yaw row becomes Coulomb's twist: m_z − σ μ r f_z = 0.
@@ -447,21 +441,27 @@ void ContactQp::pivot(DenseQp& qp, int i, int sign, bool from_rest,
 void ContactQp::stick(DenseQp& qp, int i, const Eigen::Ref<const Eigen::MatrixXd>& H_C,
                       const Eigen::Ref<const Eigen::VectorXd>& u_C) {
   LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
-  const int yaw = lb.row + lb.num_axes - 1;
-  const int fz = nv_ + lb.row + 2, mz = nv_ + yaw;
+  const int yaw = yawRow(lb);
   qp.A.row(nb_ + yaw).setZero();
   qp.A.row(nb_ + yaw).head(nv_) = H_C.row(yaw);
   qp.b[nb_ + yaw] = u_C[yaw];
+  setTorsionRows(qp, lb);
+  lb.yaw_slip = 0;
+  lb.pivot_from_rest = false;
+}
+
+void ContactQp::setTorsionRows(DenseQp& qp, const LinkBounds& lb) const {
+  // Coulomb friction at the support's points twists an edge or a face by at most μ f_z
+  // times the farthest point's distance from the link origin (a necessary bound: the
+  // tangential force shares the same friction): ±m_z − μ r f_z ≤ 0.
+  const int fz = nv_ + lb.row + 2, mz = nv_ + yawRow(lb);
   for (const int t : {lb.torsion_row, lb.torsion_row + 1}) {
-    const double s = t == lb.torsion_row ? 1.0 : -1.0;  // ±m_z − μ r f_z ≤ 0
     qp.C.row(t).setZero();
-    qp.C(t, mz) = s;
+    qp.C(t, mz) = t == lb.torsion_row ? 1.0 : -1.0;
     qp.C(t, fz) = -lb.mu * lb.torsion_arm_m;
     qp.l[t] = -kQpInfinity;
     qp.u[t] = 0.0;
   }
-  lb.yaw_slip = 0;
-  lb.pivot_from_rest = false;
 }
 
 // ---- objective tasks of the balance layer (beyond the paper's QP) ----------------------
@@ -501,7 +501,7 @@ std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
     bool pivoting = false;  // a pivot's yaw row is not a constraint (checked below)
     for (int l = 0; l < num_links_; ++l) {
       const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(l)];
-      pivoting = pivoting || (lb.yaw_slip != 0 && i == lb.row + lb.num_axes - 1);
+      pivoting = pivoting || (lb.yaw_slip != 0 && i == yawRow(lb));
     }
     if (!pivoting && std::abs(H_C.row(i).dot(vdot) - u_C[i]) > kAccelTolerance) violated |= kQpFamilyEquality;
   }

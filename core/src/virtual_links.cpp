@@ -275,13 +275,10 @@ void VirtualLinkSet::assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::Mat
     const Vector6d drift_W = model.pointJacobianDotTimesV(link.body, p_BC);
     const Eigen::Isometry3d X_WC = model.bodyPose(link.body) * link.X_BC;
     if (link.yaw_slip != 0) {
-      // A pivot moves the anchor's yaw with the body; it goes on while the body still turns
-      // against the twist friction gives.
+      // A pivot moves the anchor's yaw with the body (the yaw row below then has no error).
       const Eigen::Matrix3d R_AC = link.X_WA.linear().transpose() * X_WC.linear();
       const double yaw = std::atan2(R_AC(1, 0) - R_AC(0, 1), R_AC(0, 0) + R_AC(1, 1));
       link.X_WA.linear() = link.X_WA.linear() * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-      const double yaw_rate = link.X_WA.linear().col(2).dot(J_.bottomRows<3>() * v);
-      link.yaw_slip = yaw_rate * link.yaw_slip < -kPivotRestRate ? (yaw_rate > 0.0 ? -1 : 1) : 0;
     }
     const Eigen::Matrix3d R_AW = link.X_WA.linear().transpose();
     Vector6d error_A, drift_A;
@@ -298,6 +295,9 @@ void VirtualLinkSet::assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::Mat
         H_C.row(row).noalias() = R.row(axis - 3) * J_.bottomRows<3>();
       }
       const double velocity = H_C.row(row).dot(v);
+      // A pivot goes on while the body still turns against the twist friction gives.
+      if (axis == 5 && link.yaw_slip != 0)
+        link.yaw_slip = velocity * link.yaw_slip < -kPivotRestRate ? (velocity > 0.0 ? -1 : 1) : 0;
       const double desired = -options_.stabilization_kd * velocity -
                              options_.stabilization_kp * error_A[axis];
       u_C[row] = desired - drift_A[axis];

@@ -76,7 +76,6 @@ struct ContactQpReport {
   bool ramps_dropped = false;
   /// 2. every virtual link released (the contacts break): the caller must release them.
   bool contacts_released = false;
-  int pivots_started = 0;  ///< links that started to pivot this tick (before the relaxations)
   std::uint32_t violated_first = kQpFamilyNone;  ///< families the first (full) attempt violated
 };
 
@@ -181,6 +180,10 @@ class ContactQp {
   // Makes link @p i pivot in qp (see the file comment); rows of H_C, u_C for the sign test.
   void pivot(DenseQp& qp, int i, int sign, bool from_rest, const Eigen::Ref<const Eigen::MatrixXd>& H_C,
              const Eigen::Ref<const Eigen::VectorXd>& u_C);
+  // Writes link @p lb's two torsion rows |m_z| ≤ μ r f_z into qp.C at lb.torsion_row.
+  void setTorsionRows(DenseQp& qp, const LinkBounds& lb) const;
+  // The τ_C row (and Eq. 9 row) of an edge's or a face's yaw: rz is its last axis.
+  static int yawRow(const LinkBounds& lb) { return lb.row + lb.num_axes - 1; }
   // Undoes pivot(): link @p i's yaw row and torsion rows as built.
   void stick(DenseQp& qp, int i, const Eigen::Ref<const Eigen::MatrixXd>& H_C,
              const Eigen::Ref<const Eigen::VectorXd>& u_C);
