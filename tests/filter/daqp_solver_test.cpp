@@ -182,6 +182,102 @@ TEST(DaqpAdapter, BoundsOnlyResolvesEqualColdSolvesOfTheSameProblem) {
   EXPECT_GT(bounds_binding, 10) << "the moved bounds must bind for the comparison to mean anything";
 }
 
+TEST(DaqpAdapter, ARestartHonoursARowThatWasZeroInTheLastSolvedProblem) {
+  // The filter's tick: the last answer had a zero row (a link slot not in use), this tick's
+  // full problem uses the row and is infeasible (x ≥ 1 against x₀ + x₁ ≤ 1), the relaxation
+  // drops the box and restarts from the last answer: min ½‖x − (2, 2)‖² s.t. x₀ + x₁ ≤ 1
+  // → (0.5, 0.5). DAQP marks a zero row as immutable in its working-set flags; a restart that
+  // copied that mark would ignore the row and answer (2, 2).
+  auto solver = daqp::makeSolver(2, 0, 1, QpSolverSettings{});
+  DenseQp qp(2, 0, 1);
+  qp.H.setIdentity();
+  qp.g = -Eigen::Vector2d(2.0, 2.0);
+  qp.C.setZero();
+  qp.l[0] = -1.0;
+  qp.u[0] = 1.0;
+  qp.x_lower.setConstant(-10.0);
+  qp.x_upper.setConstant(10.0);
+  Eigen::VectorXd x(2);
+  ASSERT_EQ(solver->solve(qp, x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], 2.0, 1e-13);
+  qp.C << 1.0, 1.0;
+  qp.l[0] = -kQpInfinity;
+  qp.x_lower.setConstant(1.0);
+  ASSERT_EQ(solver->solve(qp, x).status, QpSolveStatus::kPrimalInfeasible);
+  qp.x_lower.setConstant(-kQpInfinity);
+  solver->restartFromLastSolution();
+  ASSERT_EQ(solver->resolveWithNewBounds(qp, x).status, QpSolveStatus::kSolved);
+  EXPECT_NEAR(x[0], 0.5, 1e-12);
+  EXPECT_NEAR(x[1], 0.5, 1e-12);
+}
+
+// The filter's relaxations restart from the last answer's working set: on a drifting
+// sequence, each tick's problem changes a little, a tightened copy fails, and the relaxed
+// copy (some bounds dropped, one of them the side the last answer held) is restarted. The
+// answers equal a new instance's cold solves, in fewer working-set changes than cold
+// re-solves of the same instance need.
+TEST(DaqpAdapter, RestartsFromTheLastSolutionGiveTheColdAnswersInFewerChanges) {
+  const int n = 20, n_eq = 4, n_in = 24;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  DenseQp qp(n, n_eq, n_in);
+  Eigen::MatrixXd L = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return normal(rng); });
+  qp.A = Eigen::MatrixXd::NullaryExpr(n_eq, n, [&] { return normal(rng); });
+  qp.C = Eigen::MatrixXd::NullaryExpr(n_in, n, [&] { return normal(rng); });
+  qp.g = 3.0 * Eigen::VectorXd::NullaryExpr(n, [&] { return normal(rng); });
+  qp.b = 0.5 * Eigen::VectorXd::NullaryExpr(n_eq, [&] { return normal(rng); });
+  auto restarted = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
+  auto cold = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
+  int compared = 0, restart_changes = 0, cold_changes = 0, held_side_dropped = 0;
+  for (int k = 0; k < 40; ++k) {
+    L += 0.01 * Eigen::MatrixXd::NullaryExpr(n, n, [&] { return normal(rng); });
+    qp.H = L * L.transpose() / n + 0.1 * Eigen::MatrixXd::Identity(n, n);
+    qp.g += 0.05 * Eigen::VectorXd::NullaryExpr(n, [&] { return normal(rng); });
+    qp.x_lower.setConstant(-0.6);
+    qp.x_upper.setConstant(0.6);
+    qp.l.setConstant(-1.0);
+    qp.u.setConstant(1.0);
+    Eigen::VectorXd x(n), x_cold(n), x_fresh(n);
+    if (restarted->solve(qp, x).status != QpSolveStatus::kSolved) continue;
+    const Eigen::VectorXd x_last = x;
+    // The tick's full problem: infeasible (x₀ pushed past the rows' reach).
+    DenseQp tight = qp;
+    tight.x_lower[0] = tight.x_upper[0] = 1e3;
+    restarted->solve(tight, x);
+    cold->solve(tight, x_cold);
+    // The relaxation: the box dropped on a third of the unknowns, among them every one the
+    // last answer held at a bound.
+    DenseQp relaxed = qp;
+    for (int i = 0; i < n; ++i) {
+      const bool held = std::abs(std::abs(x_last[i]) - 0.6) < 1e-9;
+      if (held || unit(rng) < 0.3) {
+        relaxed.x_lower[i] = -kQpInfinity;
+        relaxed.x_upper[i] = kQpInfinity;
+        held_side_dropped += held ? 1 : 0;
+      }
+    }
+    restarted->restartFromLastSolution();
+    const QpSolveInfo info = restarted->resolveWithNewBounds(relaxed, x);
+    cold->resetWarmStart();
+    const QpSolveInfo cold_info = cold->resolveWithNewBounds(relaxed, x_cold);
+    auto fresh = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
+    ASSERT_EQ(info.status, fresh->solve(relaxed, x_fresh).status) << "tick " << k;
+    ASSERT_EQ(cold_info.status, info.status) << "tick " << k;
+    if (info.status != QpSolveStatus::kSolved) continue;
+    ++compared;
+    restart_changes += info.iterations;
+    cold_changes += cold_info.iterations;
+    EXPECT_LT((x - x_fresh).cwiseAbs().maxCoeff(), 1e-9) << "tick " << k;
+    EXPECT_LT((x_cold - x_fresh).cwiseAbs().maxCoeff(), 1e-9) << "tick " << k;
+  }
+  EXPECT_GT(compared, 30);
+  EXPECT_GT(held_side_dropped, 10) << "the restart must meet rows whose held side is gone";
+  EXPECT_LT(restart_changes, cold_changes) << "restarts " << restart_changes << ", cold " << cold_changes;
+  RecordProperty("restart_changes", restart_changes);
+  RecordProperty("cold_changes", cold_changes);
+}
+
 TEST(DaqpAdapter, NonFiniteDataIsReportedNotSolved) {
   auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
   DenseQp qp = projectionProblem();

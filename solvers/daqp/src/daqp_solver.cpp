@@ -1,5 +1,6 @@
 #include "dynfilter/daqp/daqp_solver.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -41,6 +42,7 @@ class DaqpSolver final : public IQpSolver {
         upper_(m_),
         lower_(m_),
         sense_(static_cast<std::size_t>(m_), 0),
+        solved_sense_(static_cast<std::size_t>(m_), 0),
         lambda_(m_),
         active_set_(n, n_eq, n_in),
         y_(n_eq),
@@ -100,7 +102,7 @@ class DaqpSolver final : public IQpSolver {
   }
 
   QpSolveInfo resolveWithNewBounds(const DenseQp& p, Eigen::Ref<Eigen::VectorXd> x) override {
-    resetWarmStart();
+    if (!restart_) resetWarmStart();
     if (!loaded_) return solve(p, x);
     // DAQP holds the factor of H and the rows times its inverse from the last solve: only
     // the bounds' images need forming again (saves two O(n³) steps on a relaxed tick).
@@ -109,7 +111,14 @@ class DaqpSolver final : public IQpSolver {
 
   void resetWarmStart() override {
     cold_ = true;
+    restart_ = false;
     active_set_.clear();
+  }
+
+  void restartFromLastSolution() override {
+    active_set_.clear();
+    restart_ = solved_sense_valid_;
+    cold_ = !restart_;
   }
 
   const char* name() const override { return "daqp"; }
@@ -136,13 +145,26 @@ class DaqpSolver final : public IQpSolver {
       set_up_ = flag >= 0;  // a failed setup has freed its workspace: set up again next time
     } else {
       // Hot start: the working set of the last solve stays unless the caller reset it.
-      if (cold_) {
+      if (restart_) {
+        // The equality rows as always; of the rest, the side each was active on, unless
+        // that side is now unbounded (DAQP's own markers, e.g. of zero rows, are dropped).
+        resetSense();
+        for (int i = 0; i < m_; ++i) {
+          if (i >= n_ && i < n_ + n_eq_) continue;
+          const int s = DAQP_ZERO_ROW_SENSE(solved_sense_[static_cast<std::size_t>(i)]);
+          const bool lower_side = (s & DAQP_LOWER) != 0;
+          if ((s & DAQP_ACTIVE) && std::abs(lower_side ? lower_[i] : upper_[i]) < DAQP_INF)
+            sense_[static_cast<std::size_t>(i)] = s & (DAQP_ACTIVE | DAQP_LOWER);
+        }
+        mask |= DAQP_UPDATE_sense;
+      } else if (cold_) {
         resetSense();
         mask |= DAQP_UPDATE_sense;
       }
       flag = daqp_update_ldp(mask, &work_, &problem_);
     }
     cold_ = !warm_start_;
+    restart_ = false;
     if (flag < 0) {
       // Not set up (e.g. H not positive definite, or bounds that cross): start cold next.
       cold_ = true;
@@ -182,6 +204,10 @@ class DaqpSolver final : public IQpSolver {
       info.status = QpSolveStatus::kNotFinite;
       cold_ = true;
     }
+    if (info.status == QpSolveStatus::kSolved) {
+      std::copy(work_.sense, work_.sense + m_, solved_sense_.begin());
+      solved_sense_valid_ = true;
+    }
     if (info.status == QpSolveStatus::kSolved && warm_start_) {
       // DAQP's multipliers (box, equalities, rows; > 0 at an upper bound) as the next guess.
       z_.head(n_in_) = lambda_.tail(n_in_);
@@ -217,11 +243,14 @@ class DaqpSolver final : public IQpSolver {
   bool set_up_ = false;
   bool cold_ = true;
   bool loaded_ = false;  // DAQP's workspace holds H, g and the rows of the last solve()
+  bool restart_ = false;  // the next run starts from solved_sense_
+  bool solved_sense_valid_ = false;
   RowMajorMatrix H_;
   Eigen::VectorXd f_;
   RowMajorMatrix rows_;
   Eigen::VectorXd upper_, lower_;
   std::vector<int> sense_;
+  std::vector<int> solved_sense_;  // DAQP's working-set flags after the last success (m)
   Eigen::VectorXd lambda_;
   qp_active_set::ActiveSetStep active_set_;
   Eigen::VectorXd y_, z_;  // multipliers of the active-set step

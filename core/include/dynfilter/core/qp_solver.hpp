@@ -82,7 +82,8 @@ class IQpSolver {
   /// Solves @p problem (same dimensions on every call); writes x (dim n) even on failure
   /// (the engine's last iterate).
   virtual QpSolveInfo solve(const DenseQp& problem, Eigen::Ref<Eigen::VectorXd> x) = 0;
-  /// Solves @p problem again, cold, after only its bounds (l, u, x_lower, x_upper) changed
+  /// Solves @p problem again, cold (or as restartFromLastSolution() just asked), after only
+  /// its bounds (l, u, x_lower, x_upper) changed
   /// since the last call to solve(): H, g, A, b and C must be those of that call. An engine
   /// may then keep its factorisations of H and of the rows; the default solves from scratch.
   virtual QpSolveInfo resolveWithNewBounds(const DenseQp& problem, Eigen::Ref<Eigen::VectorXd> x) {
@@ -91,6 +92,10 @@ class IQpSolver {
   }
   /// The next solve starts cold (the problem's structure changed).
   virtual void resetWarmStart() = 0;
+  /// The next solve starts from the working set of this engine's last solve that succeeded,
+  /// without the rows whose bound on the active side is now unbounded: a re-solve of a
+  /// problem that changed a little (a relaxation). Engines without a working set start cold.
+  virtual void restartFromLastSolution() { resetWarmStart(); }
   /// Engine name, e.g. "proxqp".
   virtual const char* name() const = 0;
 };
