@@ -661,6 +661,8 @@ TEST(FilterStatusMessage, ReportsBitsReasonSolverTimingsAndCounters) {
   out.reseed_reason = ReseedReason::kJoint;
   out.counters.qp_solves = 1234;
   out.counters.qp_fallbacks = 5;
+  out.counters.qp_relaxed = 41;
+  out.counters.pivot_ticks = 7;
   fillFilterStatus(out, report, msg);
   EXPECT_EQ(msg.reason, "re-seeded; QP relaxed (re-seed: joint error) (QP violated: friction,torque)");
   EXPECT_EQ(msg.qp_status, 2);
@@ -668,6 +670,8 @@ TEST(FilterStatusMessage, ReportsBitsReasonSolverTimingsAndCounters) {
   EXPECT_EQ(msg.qp_violated, static_cast<std::int32_t>(kQpFamilyFriction | kQpFamilyTorque));
   EXPECT_EQ(msg.qp_solves, 1234);
   EXPECT_EQ(msg.qp_fallbacks, 5);
+  EXPECT_EQ(msg.qp_relaxed, 41);
+  EXPECT_EQ(msg.pivot_ticks, 7);
 }
 
 // ---------------------------------------------------------------------------------------
