@@ -73,6 +73,8 @@ TEST(DaqpAdapter, WithoutWarmStartEverySolveStartsCold) {
   EXPECT_EQ(second.iterations, first.iterations);
   EXPECT_GT(second.iterations, 1) << "two bounds to add from the equality-only start";
   EXPECT_NEAR(x[1], 0.25, 1e-13);
+  solver->restartFromLastSolution();  // a restart is a warm start: cold here too
+  EXPECT_EQ(solver->solve(projectionProblem(), x).iterations, first.iterations);
 }
 
 TEST(DaqpAdapter, InfiniteBoundsAreUnbounded) {

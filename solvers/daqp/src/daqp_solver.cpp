@@ -117,7 +117,7 @@ class DaqpSolver final : public IQpSolver {
 
   void restartFromLastSolution() override {
     active_set_.clear();
-    restart_ = solved_sense_valid_;
+    restart_ = warm_start_ && solved_sense_valid_;  // without warm starts, cold as every solve
     cold_ = !restart_;
   }
 
