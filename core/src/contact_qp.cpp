@@ -313,7 +313,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   // A re-solve, and the next tick's solve, start from the working set of the last answer
   // (the previous tick's, or this one's): the answers are those of cold starts (a strictly
   // convex QP), reached in about half the working-set changes (BENCHMARKS.md).
-  auto solveRelaxed = [&](bool bounds_only) {
+  auto resolve = [&](bool bounds_only) {
     const int earlier_iterations = report.info.iterations;
     sc.solver->restartFromLastSolution();
     report.info = timedSolve(sc, report, bounds_only);
@@ -346,7 +346,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       ++pivots_started;
     }
     if (pivots_started > 0) {
-      solveRelaxed(/*bounds_only=*/false);
+      resolve(/*bounds_only=*/false);
       report.ok = extract();
       if (!report.ok) {  // not the torsion: the links stick, and the bounds give way below
         for (int i = 0; i < num_links; ++i)
@@ -382,7 +382,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       qp.x_upper[nv_ + lb.row + 2] = kQpInfinity;
       qp.x_lower[nv_ + lb.row + 2] = lb.f_min;
     }
-    solveRelaxed(/*bounds_only=*/!rows_restored);
+    resolve(/*bounds_only=*/!rows_restored);
     report.ok = extract();
   }
   if (!report.ok && nc > 0) {
@@ -401,7 +401,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     qp.x_lower.tail(cap).setConstant(-kQpInfinity);
     qp.x_upper.tail(cap).setConstant(kQpInfinity);
     num_links_ = 0;
-    solveRelaxed(/*bounds_only=*/false);
+    resolve(/*bounds_only=*/false);
     vdot = sc.x.head(nv_);
     tau_C.setZero();
     tau_J = b_J;
