@@ -22,6 +22,31 @@ namespace {
 using test::projectionProblem;
 using test::tightSettings;
 
+// A random strictly convex QP that drifts like the filter's ticks: H = L Lᵀ / n + 0.1 I with
+// a random L, random rows A, C and vectors g, b; drift() moves L and g by random steps.
+// Bounds are the caller's.
+struct DriftingQp {
+  DriftingQp(int n, int n_eq, int n_in, unsigned seed) : rng(seed), qp(n, n_eq, n_in) {
+    L = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return draw(); });
+    qp.A = Eigen::MatrixXd::NullaryExpr(n_eq, n, [&] { return draw(); });
+    qp.C = Eigen::MatrixXd::NullaryExpr(n_in, n, [&] { return draw(); });
+    qp.g = 3.0 * Eigen::VectorXd::NullaryExpr(n, [&] { return draw(); });
+    qp.b = 0.5 * Eigen::VectorXd::NullaryExpr(n_eq, [&] { return draw(); });
+  }
+  void drift(double factor_step, double g_step) {
+    const int n = qp.n();
+    L += factor_step * Eigen::MatrixXd::NullaryExpr(n, n, [&] { return draw(); });
+    qp.H = L * L.transpose() / n + 0.1 * Eigen::MatrixXd::Identity(n, n);
+    qp.g += g_step * Eigen::VectorXd::NullaryExpr(n, [&] { return draw(); });
+  }
+  double draw() { return normal(rng); }
+
+  std::mt19937 rng;
+  std::normal_distribution<double> normal{0.0, 1.0};
+  DenseQp qp;
+  Eigen::MatrixXd L;
+};
+
 TEST(DaqpAdapter, ProjectionWithActiveBoxAndRowMatchesKktToRoundOff) {
   auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
   EXPECT_STREQ(solver->name(), "daqp");
@@ -129,21 +154,14 @@ TEST(DaqpAdapter, ABoundsOnlyResolveAfterAnInfeasibleSolveGivesTheRelaxedAnswer)
 // warm active-set guess (then the instance holds no factorisation of this problem).
 TEST(DaqpAdapter, BoundsOnlyResolvesEqualColdSolvesOfTheSameProblem) {
   const int n = 20, n_eq = 4, n_in = 24;
-  std::mt19937 rng(5);
-  std::normal_distribution<double> normal(0.0, 1.0);
+  DriftingQp drifting(n, n_eq, n_in, 5);
+  DenseQp& qp = drifting.qp;
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  DenseQp qp(n, n_eq, n_in);
-  Eigen::MatrixXd L = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return normal(rng); });
-  qp.A = Eigen::MatrixXd::NullaryExpr(n_eq, n, [&] { return normal(rng); });
-  qp.C = Eigen::MatrixXd::NullaryExpr(n_in, n, [&] { return normal(rng); });
-  qp.g = 3.0 * Eigen::VectorXd::NullaryExpr(n, [&] { return normal(rng); });
-  qp.b = 0.5 * Eigen::VectorXd::NullaryExpr(n_eq, [&] { return normal(rng); });
+  std::mt19937& rng = drifting.rng;
   auto solver = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
   int resolved = 0, bounds_binding = 0;
   for (int k = 0; k < 30; ++k) {
-    L += 0.02 * Eigen::MatrixXd::NullaryExpr(n, n, [&] { return normal(rng); });
-    qp.H = L * L.transpose() / n + 0.1 * Eigen::MatrixXd::Identity(n, n);
-    qp.g += 0.1 * Eigen::VectorXd::NullaryExpr(n, [&] { return normal(rng); });
+    drifting.drift(0.02, 0.1);
     qp.x_lower.setConstant(-0.6);
     qp.x_upper.setConstant(0.6);
     qp.l.setConstant(-1.0);
@@ -153,7 +171,7 @@ TEST(DaqpAdapter, BoundsOnlyResolvesEqualColdSolvesOfTheSameProblem) {
     // Every third tick moves g a little and solves again: the warm guess answers that in one
     // step, so DAQP itself still holds the g before the move.
     if (k % 3 == 2) {
-      qp.g += 1e-4 * Eigen::VectorXd::NullaryExpr(n, [&] { return normal(rng); });
+      qp.g += 1e-4 * Eigen::VectorXd::NullaryExpr(n, [&] { return drifting.draw(); });
       EXPECT_EQ(solver->solve(qp, x).iterations, 1) << "tick " << k;
     }
     for (int i = 0; i < n; ++i) {
@@ -220,22 +238,15 @@ TEST(DaqpAdapter, ARestartHonoursARowThatWasZeroInTheLastSolvedProblem) {
 // re-solves of the same instance need.
 TEST(DaqpAdapter, RestartsFromTheLastSolutionGiveTheColdAnswersInFewerChanges) {
   const int n = 20, n_eq = 4, n_in = 24;
-  std::mt19937 rng(11);
-  std::normal_distribution<double> normal(0.0, 1.0);
+  DriftingQp drifting(n, n_eq, n_in, 11);
+  DenseQp& qp = drifting.qp;
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  DenseQp qp(n, n_eq, n_in);
-  Eigen::MatrixXd L = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return normal(rng); });
-  qp.A = Eigen::MatrixXd::NullaryExpr(n_eq, n, [&] { return normal(rng); });
-  qp.C = Eigen::MatrixXd::NullaryExpr(n_in, n, [&] { return normal(rng); });
-  qp.g = 3.0 * Eigen::VectorXd::NullaryExpr(n, [&] { return normal(rng); });
-  qp.b = 0.5 * Eigen::VectorXd::NullaryExpr(n_eq, [&] { return normal(rng); });
+  std::mt19937& rng = drifting.rng;
   auto restarted = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
   auto cold = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
   int compared = 0, restart_changes = 0, cold_changes = 0, held_side_dropped = 0;
   for (int k = 0; k < 40; ++k) {
-    L += 0.01 * Eigen::MatrixXd::NullaryExpr(n, n, [&] { return normal(rng); });
-    qp.H = L * L.transpose() / n + 0.1 * Eigen::MatrixXd::Identity(n, n);
-    qp.g += 0.05 * Eigen::VectorXd::NullaryExpr(n, [&] { return normal(rng); });
+    drifting.drift(0.01, 0.05);
     qp.x_lower.setConstant(-0.6);
     qp.x_upper.setConstant(0.6);
     qp.l.setConstant(-1.0);
@@ -351,30 +362,18 @@ double objective(const DenseQp& qp, const Eigen::VectorXd& x) { return 0.5 * x.d
 // to round-off, and it is never worse than a cold, tight ProxQP's answer nor different from a cold DAQP's.
 TEST(DaqpAdapter, HotStartedAnswersOnADriftingSequenceOfRandomQpsAreCertifiedOptimal) {
   const int n = 30, n_eq = 6, n_in = 40;
-  std::mt19937 rng(11);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  DenseQp qp(n, n_eq, n_in);
-  Eigen::MatrixXd L(n, n);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) L(i, j) = normal(rng);
-  for (int i = 0; i < n_eq; ++i)
-    for (int j = 0; j < n; ++j) qp.A(i, j) = normal(rng);
-  for (int i = 0; i < n_in; ++i)
-    for (int j = 0; j < n; ++j) qp.C(i, j) = normal(rng);
-  for (int i = 0; i < n; ++i) qp.g[i] = 3.0 * normal(rng);
-  for (int i = 0; i < n_eq; ++i) qp.b[i] = 0.5 * normal(rng);
+  DriftingQp drifting(n, n_eq, n_in, 11);
+  DenseQp& qp = drifting.qp;
   qp.x_lower.setConstant(-0.8);
   qp.x_upper.setConstant(0.8);
   auto daqp_solver = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
   int active_total = 0, hot_iterations = 0, cold_iterations = 0, proxqp_solved = 0;
   for (int k = 0; k < 40; ++k) {
-    L += 0.02 * Eigen::MatrixXd::NullaryExpr(n, n, [&] { return normal(rng); });
-    qp.H = L * L.transpose() / n + 0.1 * Eigen::MatrixXd::Identity(n, n);
-    for (int i = 0; i < n; ++i) qp.g[i] += 0.1 * normal(rng);
-    for (int i = 0; i < n_eq; ++i) qp.b[i] += 0.02 * normal(rng);
+    drifting.drift(0.02, 0.1);
+    for (int i = 0; i < n_eq; ++i) qp.b[i] += 0.02 * drifting.draw();
     for (int i = 0; i < n_in; ++i) {
-      qp.l[i] = i % 3 == 0 ? -kQpInfinity : -1.0 - 0.1 * std::abs(normal(rng));
-      qp.u[i] = 1.0 + 0.1 * std::abs(normal(rng));
+      qp.l[i] = i % 3 == 0 ? -kQpInfinity : -1.0 - 0.1 * std::abs(drifting.draw());
+      qp.u[i] = 1.0 + 0.1 * std::abs(drifting.draw());
     }
     Eigen::VectorXd x(n), x_proxqp(n);
     const QpSolveInfo info = daqp_solver->solve(qp, x);
