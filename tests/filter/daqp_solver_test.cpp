@@ -24,7 +24,7 @@ using test::tightSettings;
 
 // A random strictly convex QP that drifts like the filter's ticks: H = L Lᵀ / n + 0.1 I with
 // a random L, random rows A, C and vectors g, b; drift() moves L and g by random steps.
-// Bounds are the caller's.
+// Bounds are the caller's (boxAndRows() sets symmetric ones).
 struct DriftingQp {
   DriftingQp(int n, int n_eq, int n_in, unsigned seed) : rng(seed), qp(n, n_eq, n_in) {
     L = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return draw(); });
@@ -39,10 +39,19 @@ struct DriftingQp {
     qp.H = L * L.transpose() / n + 0.1 * Eigen::MatrixXd::Identity(n, n);
     qp.g += g_step * Eigen::VectorXd::NullaryExpr(n, [&] { return draw(); });
   }
+  // Every unknown within ±box, every row of C within ±row.
+  void boxAndRows(double box, double row) {
+    qp.x_lower.setConstant(-box);
+    qp.x_upper.setConstant(box);
+    qp.l.setConstant(-row);
+    qp.u.setConstant(row);
+  }
   double draw() { return normal(rng); }
+  double uniform() { return unit(rng); }
 
   std::mt19937 rng;
   std::normal_distribution<double> normal{0.0, 1.0};
+  std::uniform_real_distribution<double> unit{0.0, 1.0};
   DenseQp qp;
   Eigen::MatrixXd L;
 };
@@ -156,16 +165,11 @@ TEST(DaqpAdapter, BoundsOnlyResolvesEqualColdSolvesOfTheSameProblem) {
   const int n = 20, n_eq = 4, n_in = 24;
   DriftingQp drifting(n, n_eq, n_in, 5);
   DenseQp& qp = drifting.qp;
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::mt19937& rng = drifting.rng;
   auto solver = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
   int resolved = 0, bounds_binding = 0;
   for (int k = 0; k < 30; ++k) {
     drifting.drift(0.02, 0.1);
-    qp.x_lower.setConstant(-0.6);
-    qp.x_upper.setConstant(0.6);
-    qp.l.setConstant(-1.0);
-    qp.u.setConstant(1.0);
+    drifting.boxAndRows(0.6, 1.0);
     Eigen::VectorXd x(n), x_cold(n);
     solver->solve(qp, x);
     // Every third tick moves g a little and solves again: the warm guess answers that in one
@@ -175,7 +179,7 @@ TEST(DaqpAdapter, BoundsOnlyResolvesEqualColdSolvesOfTheSameProblem) {
       EXPECT_EQ(solver->solve(qp, x).iterations, 1) << "tick " << k;
     }
     for (int i = 0; i < n; ++i) {
-      const double r = unit(rng);
+      const double r = drifting.uniform();
       if (r < 0.3) {
         qp.x_lower[i] = -kQpInfinity;
         qp.x_upper[i] = kQpInfinity;
@@ -184,7 +188,7 @@ TEST(DaqpAdapter, BoundsOnlyResolvesEqualColdSolvesOfTheSameProblem) {
       }
     }
     for (int i = 0; i < n_in; ++i) {
-      if (unit(rng) < 0.3) {
+      if (drifting.uniform() < 0.3) {
         qp.l[i] = -kQpInfinity;
         qp.u[i] = kQpInfinity;
       }
@@ -240,17 +244,12 @@ TEST(DaqpAdapter, RestartsFromTheLastSolutionGiveTheColdAnswersInFewerChanges) {
   const int n = 20, n_eq = 4, n_in = 24;
   DriftingQp drifting(n, n_eq, n_in, 11);
   DenseQp& qp = drifting.qp;
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::mt19937& rng = drifting.rng;
   auto restarted = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
   auto cold = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
   int compared = 0, restart_changes = 0, cold_changes = 0, held_side_dropped = 0;
   for (int k = 0; k < 40; ++k) {
     drifting.drift(0.01, 0.05);
-    qp.x_lower.setConstant(-0.6);
-    qp.x_upper.setConstant(0.6);
-    qp.l.setConstant(-1.0);
-    qp.u.setConstant(1.0);
+    drifting.boxAndRows(0.6, 1.0);
     Eigen::VectorXd x(n), x_cold(n), x_fresh(n);
     if (restarted->solve(qp, x).status != QpSolveStatus::kSolved) continue;
     const Eigen::VectorXd x_last = x;
@@ -264,7 +263,7 @@ TEST(DaqpAdapter, RestartsFromTheLastSolutionGiveTheColdAnswersInFewerChanges) {
     DenseQp relaxed = qp;
     for (int i = 0; i < n; ++i) {
       const bool held = std::abs(std::abs(x_last[i]) - 0.6) < 1e-9;
-      if (held || unit(rng) < 0.3) {
+      if (held || drifting.uniform() < 0.3) {
         relaxed.x_lower[i] = -kQpInfinity;
         relaxed.x_upper[i] = kQpInfinity;
         held_side_dropped += held ? 1 : 0;
