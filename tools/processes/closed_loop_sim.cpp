@@ -48,6 +48,7 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
   const double dt = 1e-3;
   const int ticks = static_cast<int>(std::lround((setup.replay_start_s + setup.seconds) / dt));
   Eigen::VectorXd tau = Eigen::VectorXd::Zero(info.nj);
+  Eigen::VectorXd v_before = Eigen::VectorXd::Zero(info.nv), accel_mismatch = Eigen::VectorXd::Zero(info.nv);
   struct HeldState {
     Eigen::VectorXd q, v;
     double t;
@@ -83,6 +84,7 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
     if (out.status & kStatusReseeded)
       ++r.reseed_ticks_by_reason[static_cast<std::size_t>(std::clamp(static_cast<int>(out.reseed_reason), 0, 6))];
     tau = rt.command();
+    v_before = robot->v();
     if (!robot_stalled)
       for (int s = 0; s < engine.substeps; ++s) robot->simulateStep(tau, dt / engine.substeps);
     ++r.ticks;
@@ -106,6 +108,12 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
                      b->dcm_desired.x(), b->dcm_desired.y(), b->cop_command.x(), b->cop_command.y(),
                      b->com_accel_desired.x(), b->com_accel_desired.y(), b->com_accel_desired.z(),
                      b->preview_samples);
+      // The model's mismatch: the robot's acceleration over the step minus the filter's v̇.
+      accel_mismatch = (robot->v() - v_before) / dt - out.vdot;
+      int mismatch_joint = 0;
+      const double joint_mismatch = accel_mismatch.tail(info.nj).cwiseAbs().maxCoeff(&mismatch_joint);
+      std::fprintf(log, " %.3f %.3f %s %.3f", accel_mismatch.head<3>().norm(), accel_mismatch.segment<3>(3).norm(),
+                   info.joint_names[static_cast<std::size_t>(mismatch_joint)].c_str(), joint_mismatch);
       std::fputc('\n', log);
     }
   }

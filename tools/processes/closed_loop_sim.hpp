@@ -58,8 +58,11 @@ struct ClosedLoopResult {
 
 /// Runs the loop. @p log (may be null) gets one line a tick: time (s, local), base z (m),
 /// tilt (rad), stale, reference time (s, sender), status, reseed reason, worst joint and
-/// its tracking error (rad), and with the balance layer dcm, dcm_desired, cop_command
-/// (x y each, m), c̈_d (x y z, m/s²), preview samples. Throws on a bad setup.
+/// its tracking error (rad), with the balance layer dcm, dcm_desired, cop_command (x y
+/// each, m), c̈_d (x y z, m/s²), preview samples, and last the model's mismatch: the robot's
+/// acceleration over the step minus the filter's v̇, as |base linear| (m/s²), |base
+/// angular| (rad/s²), the joint with the largest |difference| and that value (rad/s² or
+/// m/s²). Throws on a bad setup.
 ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot, const ClosedLoopSetup& setup,
                                const std::vector<realtime::Clip>& clips, std::FILE* log = nullptr);
 
