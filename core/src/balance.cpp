@@ -14,7 +14,6 @@ namespace {
 using polygon::clampToHull;
 using polygon::convexHull;
 
-constexpr double kGravity = 9.81;  // m/s², along −z (the models' default gravity)
 constexpr double kMinHeight = 0.2;  // m: the LIPM height never below this
 constexpr double kInfeasibleAfterS = 0.25;  // s the reference must look infeasible
 constexpr double kReferenceFlatRad = 0.1;  // a reference sole this close to its surface is flat
@@ -296,10 +295,10 @@ Eigen::Vector2d BalanceLayer::segmentCop(const Sample& before, const Sample& a, 
   if (cddot != nullptr) *cddot = acc;
   const Eigen::Vector3d c = 0.5 * (a.c + b.c);
   const double height = std::max(c.z() - groundHeight(c.head<2>()), kMinHeight);
-  const double support = kGravity + acc.z();
+  const double support = kStandardGravity + acc.z();
   Eigen::Vector2d p = c.head<2>();
   // The CoP of the wrench the reference needs: force m (c̈ + g), moment L̇ about c.
-  if (support > 0.2 * kGravity)
+  if (support > 0.2 * kStandardGravity)
     p += -height / support * acc.head<2>() + Eigen::Vector2d(-Ldot.y(), Ldot.x()) / (mass_kg_ * support);
   const Eigen::Vector2d clamped = clampToHull(p, a.support, a.num_support);
   if (excess != nullptr) *excess = clamped - p;
@@ -360,7 +359,7 @@ void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& referenc
   const Environment& env = model.environment();
   environment_ = &env;
   const double height = std::max(now_.c.z() - groundHeight(now_.c.head<2>()), kMinHeight);
-  omega_ = std::sqrt(kGravity / height);
+  omega_ = std::sqrt(kStandardGravity / height);
 
   // Future samples in the window, after t.
   int first = 0;
@@ -426,9 +425,9 @@ void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& referenc
   state_.dcm_desired = dcm_target_;
 
   // Can the reference be followed? It needs the contact force m (c̈ − g).
-  const Eigen::Vector3d force = mass_kg_ * (cddot_ref_ + Eigen::Vector3d(0.0, 0.0, kGravity));
+  const Eigen::Vector3d force = mass_kg_ * (cddot_ref_ + Eigen::Vector3d(0.0, 0.0, kStandardGravity));
   InfeasibleReason reason = InfeasibleReason::kNone;
-  needs_support_ = force.z() > 0.3 * mass_kg_ * kGravity;
+  needs_support_ = force.z() > 0.3 * mass_kg_ * kStandardGravity;
   if (needs_support_) {
     if (now_.num_support == 0) {
       reason = InfeasibleReason::kNoSupport;
@@ -559,7 +558,7 @@ void BalanceLayer::buildTasks(const IDynamicsModel& model, const Eigen::Ref<cons
     }
     slot += link.num_axes;
   }
-  tasks.r.head<3>() = cddot - Eigen::Vector3d(0.0, 0.0, -kGravity);
+  tasks.r.head<3>() = cddot - Eigen::Vector3d(0.0, 0.0, -kStandardGravity);
   tasks.w.head<3>().setConstant(options_.com_weight);
   tasks.r.segment<3>(3) = -options_.angular_momentum_damping * state_.filter.L_W;
   tasks.w.segment<3>(3).setConstant(options_.angular_momentum_weight);

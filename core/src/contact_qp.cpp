@@ -16,7 +16,6 @@ namespace {
 
 constexpr double kForceTolerance = 1e-6;  // N and N m: checks of the inequality families
 constexpr double kAccelTolerance = 1e-6;  // m/s², rad/s²
-constexpr double kGravity = 9.81;
 constexpr double kPi = 3.14159265358979323846;
 // A held link starts to pivot when its last twist was this close to friction's bound.
 constexpr double kPivotOnset = 0.95;
@@ -108,8 +107,8 @@ ContactQp::ContactQp(const ModelInfo& info, int max_links, double dt_s,
   M_.setZero(nj_, nv_ + max_rows);
   residual_.setZero(nv_ + max_rows);
   link_bounds_.resize(static_cast<std::size_t>(max_links));
-  weight_n_ = std::max(info.total_mass, 1e-9) * kGravity;
-  equality_tolerance_ = 1e-8 * std::max(weight_n_, kGravity);
+  weight_n_ = std::max(info.total_mass, 1e-9) * kStandardGravity;
+  equality_tolerance_ = 1e-8 * std::max(weight_n_, kStandardGravity);
 }
 
 ContactQp::~ContactQp() = default;

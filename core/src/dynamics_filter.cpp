@@ -21,7 +21,6 @@ double secondsSince(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-constexpr double kGravity = 9.81;  // m/s², for the body weight that scales the Eq. 12 guard
 
 // Capacity of the collision candidate list: several points per touching shape.
 constexpr std::size_t kMaxCandidates = 64;
@@ -64,7 +63,7 @@ DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& optio
     }
   }
   const int max_rows = 6 * options_.contacts.max_links;
-  weight_n_ = std::max(info.total_mass, 1e-9) * kGravity;
+  weight_n_ = std::max(info.total_mass, 1e-9) * kStandardGravity;
   q_ = info.neutralConfiguration();
   v_.setZero(nv_);
   last_reference_ = ReferenceFrame(info.nq, nv_);

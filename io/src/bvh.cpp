@@ -26,16 +26,6 @@ constexpr double kRadPerDeg = kPi / 180.0;
 
 bool isSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
-std::string quoted(std::string_view s) { return "\"" + std::string(s) + "\""; }
-
-const char* numberProblem(NumberStatus status) {
-  switch (status) {
-    case NumberStatus::kNotFinite: return "not a finite number";
-    case NumberStatus::kOutOfRange: return "number out of range";
-    default: return "not a number";
-  }
-}
-
 // The file split into lines; a line's '\r' before the '\n' stays in it and counts as
 // blank space. A UTF-8 byte order mark in front of the first line is dropped.
 std::vector<std::string_view> splitLines(std::string_view text) {
@@ -178,8 +168,8 @@ class Reader {
 
   std::string blockLabel(const OpenBlock& block) const {
     const BvhJoint& j = motion_.joints[static_cast<std::size_t>(block.joint)];
-    return std::string(j.end_site ? "End Site of " + quoted(jointName(j.parent))
-                                  : (j.parent < 0 ? "ROOT " : "JOINT ") + quoted(j.name)) +
+    return std::string(j.end_site ? "End Site of " + detail::quoted(jointName(j.parent))
+                                  : (j.parent < 0 ? "ROOT " : "JOINT ") + detail::quoted(j.name)) +
            " (line " + std::to_string(j.line) + ")";
   }
 
@@ -200,21 +190,21 @@ class Reader {
       if (words.empty() || words.front().text != "Site")
         fail(keyword, "expected \"End Site\"");
       if (words.size() > 1)
-        fail(words[1], "unexpected " + quoted(words[1].text) + " after End Site");
+        fail(words[1], "unexpected " + detail::quoted(words[1].text) + " after End Site");
       joint.name = jointName(joint.parent) + "_end";
     } else {
       if (words.empty())
         fail(keyword, std::string(keyword.text) + " without a name");
       for (const Token& w : words) {
         if (w.text == "{" || w.text == "}")
-          fail(w, "unexpected " + quoted(w.text) + " in the name of a " +
+          fail(w, "unexpected " + detail::quoted(w.text) + " in the name of a " +
                       std::string(keyword.text));
         if (!joint.name.empty()) joint.name += ' ';
         joint.name += w.text;
       }
       const auto seen = names_.emplace(joint.name, joint.line);
       if (!seen.second)
-        fail(words.front(), "joint name " + quoted(joint.name) + " already used at line " +
+        fail(words.front(), "joint name " + detail::quoted(joint.name) + " already used at line " +
                                 std::to_string(seen.first->second));
     }
     if (!brace) {
@@ -223,11 +213,11 @@ class Reader {
         fail(lastLine(), 0,
              "unbalanced braces: the file ends where \"{\" should open " +
                  std::string(keyword.text) +
-                 (end_site ? " Site" : " " + quoted(joint.name)));
+                 (end_site ? " Site" : " " + detail::quoted(joint.name)));
       if (next.text != "{")
         fail(next, "unbalanced braces: expected \"{\" to open " + std::string(keyword.text) +
-                       (end_site ? " Site" : " " + quoted(joint.name)) + ", found " +
-                       quoted(next.text));
+                       (end_site ? " Site" : " " + detail::quoted(joint.name)) + ", found " +
+                       detail::quoted(next.text));
     }
     motion_.joints.push_back(std::move(joint));
     open.push_back(OpenBlock{static_cast<int>(motion_.joints.size()) - 1});
@@ -246,7 +236,7 @@ class Reader {
       double value = 0.0;
       const NumberStatus status = detail::parseDouble(w.text, value);
       if (status != NumberStatus::kOk)
-        fail(w, "OFFSET value " + quoted(w.text) + ": " + numberProblem(status));
+        fail(w, "OFFSET value " + detail::quoted(w.text) + ": " + detail::describe(status));
       joint.offset[i] = value * options_.length_scale;
     }
   }
@@ -258,7 +248,7 @@ class Reader {
     if (words.empty()) fail(keyword, "CHANNELS without a count");
     long long count = 0;
     if (!parseCount(words[0].text, 6, count))
-      fail(words[0], "CHANNELS count " + quoted(words[0].text) + " is not an integer in 0..6");
+      fail(words[0], "CHANNELS count " + detail::quoted(words[0].text) + " is not an integer in 0..6");
     const std::size_t names = words.size() - 1;
     if (names != static_cast<std::size_t>(count))
       fail(keyword, "CHANNELS declares " + std::to_string(count) + " channels but " +
@@ -268,7 +258,7 @@ class Reader {
     for (std::size_t i = 1; i < words.size(); ++i) {
       BvhChannel channel{};
       if (!parseChannel(words[i].text, channel))
-        fail(words[i], "unknown channel " + quoted(words[i].text) +
+        fail(words[i], "unknown channel " + detail::quoted(words[i].text) +
                            " (expected Xposition, Yposition, Zposition, Xrotation, Yrotation or "
                            "Zrotation)");
       for (BvhChannel c : joint.channels)
@@ -289,7 +279,7 @@ class Reader {
     Token token;
     if (!lexer_.next(token)) fail(0, 0, "missing HIERARCHY: the file is empty");
     if (token.text != "HIERARCHY")
-      fail(token, "missing HIERARCHY: the file starts with " + quoted(token.text));
+      fail(token, "missing HIERARCHY: the file starts with " + detail::quoted(token.text));
     std::vector<OpenBlock> open;
     while (true) {
       if (!lexer_.next(token)) {
@@ -308,7 +298,7 @@ class Reader {
         } else if (word == "}") {
           fail(token, "unbalanced braces: \"}\" without a matching \"{\"");
         } else {
-          fail(token, "expected ROOT or MOTION, found " + quoted(word));
+          fail(token, "expected ROOT or MOTION, found " + detail::quoted(word));
         }
         continue;
       }
@@ -330,7 +320,7 @@ class Reader {
         fail(token, "unbalanced braces: MOTION inside " + blockLabel(block) + ", " +
                         std::to_string(open.size()) + " \"}\" missing");
       } else {
-        fail(token, "unexpected " + quoted(word) + " in " + blockLabel(block) +
+        fail(token, "unexpected " + detail::quoted(word) + " in " + blockLabel(block) +
                         (end_site ? " (expected OFFSET or \"}\")"
                                   : " (expected OFFSET, CHANNELS, JOINT, End Site or \"}\")"));
       }
@@ -339,7 +329,7 @@ class Reader {
     if (channel_count_ == 0) fail(token, "the hierarchy has no channels");
     const std::vector<Token> rest = lexer_.restOfLine();
     if (!rest.empty())
-      fail(rest.front(), "unexpected " + quoted(rest.front().text) + " after MOTION");
+      fail(rest.front(), "unexpected " + detail::quoted(rest.front().text) + " after MOTION");
   }
 
   // One "Frames:" / "Frame Time:" header line: the label words, then one value word.
@@ -353,7 +343,7 @@ class Reader {
     words.insert(words.begin(), token);
     for (std::size_t i = 0; i < label.size(); ++i)
       if (i >= words.size() || words[i].text != label[i])
-        fail(token, std::string("expected \"") + what + "\", found " + quoted(token.text));
+        fail(token, std::string("expected \"") + what + "\", found " + detail::quoted(token.text));
     if (words.size() != label.size() + 1)
       fail(token, std::string("\"") + what + "\" needs one value on its line, found " +
                       std::to_string(words.size() - label.size()));
@@ -365,14 +355,14 @@ class Reader {
     const Token count_word = readLabelled({"Frames:"}, motion_token, "Frames:");
     long long declared = 0;
     if (!parseCount(count_word.text, std::numeric_limits<int>::max(), declared))
-      fail(count_word, "\"Frames:\" value " + quoted(count_word.text) +
+      fail(count_word, "\"Frames:\" value " + detail::quoted(count_word.text) +
                            " is not a non-negative integer");
     const Token time_word = readLabelled({"Frame", "Time:"}, count_word, "Frame Time:");
     double frame_time = 0.0;
     const NumberStatus status = detail::parseDouble(time_word.text, frame_time);
     if (status != NumberStatus::kOk)
       fail(time_word,
-           "\"Frame Time:\" value " + quoted(time_word.text) + ": " + numberProblem(status));
+           "\"Frame Time:\" value " + detail::quoted(time_word.text) + ": " + detail::describe(status));
     if (!(frame_time > 0.0))
       fail(time_word, "\"Frame Time:\" must be > 0 s, got " + std::string(time_word.text));
     motion_.frame_time_s = frame_time;
@@ -485,8 +475,8 @@ class Reader {
                ", found " + std::to_string(found));
     if (bad >= 0)
       fail(line_number, bad + 1,
-           "value " + std::to_string(bad + 1) + " " + quoted(bad_text) + ": " +
-               numberProblem(bad_status));
+           "value " + std::to_string(bad + 1) + " " + detail::quoted(bad_text) + ": " +
+               detail::describe(bad_status));
   }
 
   std::string path_;

@@ -66,6 +66,16 @@ bool splitCsvLine(std::string_view line, std::vector<std::string>& fields, std::
   }
 }
 
+const char* describe(NumberStatus status) {
+  switch (status) {
+    case NumberStatus::kNotFinite: return "not a finite number";
+    case NumberStatus::kOutOfRange: return "number out of range";
+    default: return "not a number";
+  }
+}
+
+std::string quoted(std::string_view s) { return "\"" + std::string(s) + "\""; }
+
 NumberStatus parseDouble(std::string_view text, double& value) {
   text = trim(text);
   if (!text.empty() && text.front() == '+') {

@@ -37,6 +37,10 @@ enum class NumberStatus { kOk, kNotANumber, kNotFinite, kOutOfRange };
 /// exponent; "inf"/"nan" are recognised and reported as kNotFinite). Locale-independent,
 /// correctly rounded.
 NumberStatus parseDouble(std::string_view text, double& value);
+/// What was wrong with a field that is not kOk ("not a number", ...), for error messages.
+const char* describe(NumberStatus status);
+/// @p s in double quotes, for error messages.
+std::string quoted(std::string_view s);
 
 /// Appends the shortest text that reads back as exactly @p x (std::to_chars); non-finite
 /// values as "nan", "inf", "-inf".

@@ -11,7 +11,6 @@
 
 namespace dynfilter::io {
 namespace {
-constexpr double kGravity = 9.81;  // m/s², along −z
 constexpr std::size_t kMaxSupportPoints = 128;
 // The needed wrench is smoothed over this σ (s): the second derivative of captured motion
 // is noisy, and the pendulum (time constant 1/ω ≈ 0.3 s) does not feel faster changes.
@@ -68,7 +67,7 @@ NeededWrench neededWrench(const ReferenceMotion& motion, IDynamicsModel& model) 
     const std::size_t a = k == 0 ? 0 : k - 1, b = std::min(n - 1, k + 1);
     const double dt = motion.frames[b].time_s - motion.frames[a].time_s;
     if (!(dt > 0)) continue;
-    w.F[k] = w.R_PW * (mass * ((cs[b].cdot_W - cs[a].cdot_W) / dt + Eigen::Vector3d(0.0, 0.0, kGravity)));
+    w.F[k] = w.R_PW * (mass * ((cs[b].cdot_W - cs[a].cdot_W) / dt + Eigen::Vector3d(0.0, 0.0, kStandardGravity)));
     w.M[k] = w.R_PW * ((cs[b].L_W - cs[a].L_W) / dt);
   }
   std::vector<ReferenceFrame> wrench(n, ReferenceFrame(6, 6));
@@ -111,14 +110,14 @@ std::vector<ZmpSample> zmpAgainstSupport(const ReferenceMotion& motion, IDynamic
     const Eigen::Vector3d& F = w.F[k];
     const Eigen::Vector3d& M = w.M[k];
     s.com_height_m = c_P.z() - w.offset_m;
-    if (n < 3 || support_W[k].empty() || F.z() < 0.2 * mass * kGravity) continue;
+    if (n < 3 || support_W[k].empty() || F.z() < 0.2 * mass * kStandardGravity) continue;
     s.zmp = Eigen::Vector2d(c_P.x() - (s.com_height_m * F.x() + M.y()) / F.z(),
                             c_P.y() - (s.com_height_m * F.y() - M.x()) / F.z());
     const std::vector<Eigen::Vector2d> h = planeHull(support_W[k], w.R_PW);
     std::copy(h.begin(), h.end(), hull.begin());
     s.nearest = polygon::clampToHull(s.zmp, hull, static_cast<int>(h.size()));
     s.outside_m = (s.zmp - s.nearest).norm();
-    s.vertical_load = F.z() / (mass * kGravity);
+    s.vertical_load = F.z() / (mass * kStandardGravity);
     s.defined = true;
   }
   return out;
@@ -135,10 +134,10 @@ std::vector<PendulumSample> pendulumSamples(const ReferenceMotion& motion, IDyna
     PendulumSample& s = out[k];
     s.time_s = motion.frames[k].time_s;
     s.c = w.c_P[k].head<2>();
-    s.load = w.F[k].z() / (mass * kGravity);
+    s.load = w.F[k].z() / (mass * kStandardGravity);
     if (support_W[k].empty() || s.load < 0.2) continue;
     const double h = w.c_P[k].z() - w.offset_m;
-    s.beta_s2 = h / (s.load * kGravity);
+    s.beta_s2 = h / (s.load * kStandardGravity);
     s.moment_offset = Eigen::Vector2d(-w.M[k].y(), w.M[k].x()) / w.F[k].z();
     s.support = planeHull(support_W[k], w.R_PW);
   }
@@ -214,7 +213,7 @@ std::vector<Eigen::Vector2d> feasibleComPath(const std::vector<PendulumSample>& 
       const double inv_h2 = 1.0 / h2(j);
       int r = j * rows_per_point;
       // Friction of the whole contact force: |c̈_x|, |c̈_y| ≤ μ g (load).
-      const double a_max = options.friction * kGravity * std::max(0.0, s.load);
+      const double a_max = options.friction * kStandardGravity * std::max(0.0, s.load);
       for (int a = 0; a < 2; ++a, ++r) {
         qp.C(r, 2 * (j - 1) + a) = inv_h2;
         qp.C(r, 2 * j + a) = -2.0 * inv_h2;

@@ -37,8 +37,6 @@ struct ColumnRole {
   bool base = false;  // a base column (must be absent for a fixed base)
 };
 
-std::string quoted(std::string_view s) { return "\"" + std::string(s) + "\""; }
-
 // Every column name the format knows for this model, with its role.
 std::unordered_map<std::string, ColumnRole> knownColumns(const std::string& path,
                                                          const ModelInfo& info) {
@@ -46,7 +44,7 @@ std::unordered_map<std::string, ColumnRole> knownColumns(const std::string& path
   auto add = [&](const std::string& name, ColumnRole role) {
     if (!known.emplace(name, role).second)
       throw InputError(path, 0,
-                       "model \"" + info.name + "\": joint column " + quoted(name) +
+                       "model \"" + info.name + "\": joint column " + detail::quoted(name) +
                            " clashes with another column of the format");
   };
   add(detail::kTimeColumn, {Target::kTime, 0, Group::kTime, false});
@@ -82,14 +80,6 @@ std::vector<std::string> derivativeColumns(const ModelInfo& info, bool accelerat
   for (const std::string& joint : info.joint_names)
     names.push_back(joint + (acceleration ? detail::kAccelerationSuffix : detail::kVelocitySuffix));
   return names;
-}
-
-const char* numberProblem(NumberStatus status) {
-  switch (status) {
-    case NumberStatus::kNotFinite: return "not a finite number";
-    case NumberStatus::kOutOfRange: return "number out of range";
-    default: return "not a number";
-  }
 }
 
 }  // namespace
@@ -152,17 +142,17 @@ ReferenceMotion readReferenceMotion(const std::string& path, const ModelInfo& in
         const auto [it, inserted] = seen.emplace(name, column);
         if (!inserted)
           throw InputError(path, line_no, column,
-                           "duplicate column " + quoted(name) + " (also column " +
+                           "duplicate column " + detail::quoted(name) + " (also column " +
                                std::to_string(it->second) + ")");
         const auto role = known.find(name);
         if (role == known.end()) {
           if (!options.allow_extra_columns)
-            throw InputError(path, line_no, column, "unknown column " + quoted(name));
+            throw InputError(path, line_no, column, "unknown column " + detail::quoted(name));
           roles.push_back(ColumnRole{});
         } else {
           if (role->second.base && !info.floating_base)
             throw InputError(path, line_no, column,
-                             "column " + quoted(name) + " is a base column but model \"" +
+                             "column " + detail::quoted(name) + " is a base column but model \"" +
                                  info.name + "\" has a fixed base");
           roles.push_back(role->second);
           if (role->second.target == Target::kTime) time_column = static_cast<int>(c);
@@ -179,7 +169,7 @@ ReferenceMotion readReferenceMotion(const std::string& path, const ModelInfo& in
       for (const std::string& joint : info.joint_names) required.push_back(joint);
       for (const std::string& name : required)
         if (seen.count(name) == 0)
-          throw InputError(path, line_no, "missing column " + quoted(name));
+          throw InputError(path, line_no, "missing column " + detail::quoted(name));
       // Velocities and accelerations: all or none.
       for (const bool acceleration : {false, true}) {
         const std::vector<std::string> names = derivativeColumns(info, acceleration);
@@ -192,7 +182,7 @@ ReferenceMotion readReferenceMotion(const std::string& path, const ModelInfo& in
               throw InputError(path, line_no,
                                std::string("incomplete ") +
                                    (acceleration ? "acceleration" : "velocity") +
-                                   " columns: missing " + quoted(name) + " (give all " +
+                                   " columns: missing " + detail::quoted(name) + " (give all " +
                                    std::to_string(names.size()) + " or none)");
         }
         (acceleration ? motion.had_accelerations : motion.had_velocities) = true;
@@ -213,8 +203,8 @@ ReferenceMotion readReferenceMotion(const std::string& path, const ModelInfo& in
       const NumberStatus status = detail::parseDouble(fields[c], value);
       if (status != NumberStatus::kOk)
         throw InputError(path, line_no, static_cast<int>(c) + 1,
-                         "column " + quoted(header[c]) + ": " + numberProblem(status) + ": " +
-                             quoted(fields[c]));
+                         "column " + detail::quoted(header[c]) + ": " + detail::describe(status) + ": " +
+                             detail::quoted(fields[c]));
       switch (role.target) {
         case Target::kTime: frame.time_s = value; break;
         case Target::kQ: frame.q[role.index] = value; break;

@@ -20,7 +20,7 @@ namespace dynfilter {
 namespace {
 
 constexpr int kStates = 100;
-constexpr double kTolerance = 1e-9;
+constexpr double kCrossTolerance = 1e-9;
 constexpr double kVelocityScale = 2.0;  // |v_i| ≤ this (m/s, rad/s)
 constexpr double kTorqueScale = 100.0;  // |τ_j| ≤ min(this, tau_max_j)
 
@@ -30,20 +30,20 @@ struct TrackedPoint {
   Eigen::Vector3d p_LP;
 };
 
-struct Case {
+struct CrossCase {
   std::string name;
   std::string model;  // path relative to the source tree
   bool floating_base;
   std::vector<TrackedPoint> points;
 };
 
-void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
+void PrintTo(const CrossCase& c, std::ostream* os) { *os << c.name; }
 
 // Sole centre (bottom face of the sole box) and a point between the fingers.
 const Eigen::Vector3d kSoleCentre(0.0726, 0.0, -0.068);
 const Eigen::Vector3d kHandPoint(0.0, 0.0, -0.1);
 
-std::vector<Case> cases() {
+std::vector<CrossCase> cases() {
   const std::vector<TrackedPoint> figure = {{"foot", "l_foot", kSoleCentre},
                                             {"foot", "r_foot", kSoleCentre},
                                             {"hand", "l_hand", kHandPoint},
@@ -66,10 +66,10 @@ std::vector<Case> cases() {
           {"floating_chain_fixed", "tests/models/floating_chain.urdf", false, chain}};
 }
 
-class CrossBackend : public testing::TestWithParam<Case> {};
+class CrossBackend : public testing::TestWithParam<CrossCase> {};
 
 TEST_P(CrossBackend, DartAndOdeAgreeOnRandomStates) {
-  const Case& c = GetParam();
+  const CrossCase& c = GetParam();
   const auto robot = urdf::loadUrdfFile(test::sourcePath(c.model),
                                         {{test::testModelPath("")}, {}});  // package:// meshes
   ModelOptions options;
@@ -94,7 +94,7 @@ TEST_P(CrossBackend, DartAndOdeAgreeOnRandomStates) {
     const double e = test::relativeError(from_ode, from_dart);
     double& w = worst[quantity];
     w = std::max(w, e);
-    EXPECT_LT(e, kTolerance) << quantity << ", state " << state;
+    EXPECT_LT(e, kCrossTolerance) << quantity << ", state " << state;
   };
 
   std::mt19937 rng(20240611);
@@ -135,7 +135,7 @@ TEST_P(CrossBackend, DartAndOdeAgreeOnRandomStates) {
 }
 
 INSTANTIATE_TEST_SUITE_P(DartVersusOde, CrossBackend, testing::ValuesIn(cases()),
-                         [](const testing::TestParamInfo<Case>& i) { return i.param.name; });
+                         [](const testing::TestParamInfo<CrossCase>& i) { return i.param.name; });
 
 }  // namespace
 }  // namespace dynfilter

@@ -15,7 +15,7 @@
 namespace dynfilter {
 namespace {
 
-constexpr double kTolerance = 1e-10;
+constexpr double kMimicTolerance = 1e-10;
 
 double relative(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).cwiseAbs().maxCoeff() / std::max(1.0, b.cwiseAbs().maxCoeff());
@@ -121,7 +121,7 @@ TEST_P(Mimic, ReducedDynamicsEqualTheFullModelMappedThroughG) {
     }
   }
   RecordProperty("worst_relative", std::to_string(worst));
-  EXPECT_LT(worst, kTolerance);
+  EXPECT_LT(worst, kMimicTolerance);
 }
 
 TEST_P(Mimic, BiasFollowsFromTheLagrangian) {

@@ -26,7 +26,6 @@
 namespace dynfilter {
 namespace {
 
-constexpr double kGravity = 9.81;
 
 Eigen::Vector3d comFromLinks(const IDynamicsModel& model, const urdf::RobotDescription& robot) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -114,7 +113,7 @@ WalkWindow runWalk(double seconds) {
   std::size_t previewed = 0;
   ReferenceFrame ref(info.nq, info.nv);
   WalkWindow w;
-  w.weight_n = info.total_mass * kGravity;
+  w.weight_n = info.total_mass * kStandardGravity;
   double legs_sq = 0.0, base_sq = 0.0;
   long legs_n = 0, ticks = 0;
   for (std::size_t segment = 0; segment + 1 < frames.size(); ++segment) {
@@ -301,7 +300,7 @@ TEST(Balance, TheDcmTargetOfAReferenceInsideItsSupportIsItsOwnDcm) {
   for (const double t : {0.305, 0.81, 1.333, 2.0, 2.52}) {
     layer.prepare(*model, frameAt(t), 1e-3);
     const BalanceState& s = layer.state();
-    const double omega = std::sqrt(kGravity / s.reference.c_W.z());
+    const double omega = std::sqrt(kStandardGravity / s.reference.c_W.z());
     const Eigen::Vector2d xi = s.reference.c_W.head<2>() + s.reference.cdot_W.head<2>() / omega;
     worst = std::max(worst, (s.dcm_desired - xi).norm());
     EXPECT_EQ(s.infeasible, InfeasibleReason::kNone);
@@ -358,7 +357,7 @@ TEST(Balance, TheCachedBackwardPassGivesTheTargetOfAFreshLayer) {
     EXPECT_EQ(layer.state().dcm_desired.x(), fresh.state().dcm_desired.x()) << "t = " << t;
     EXPECT_EQ(layer.state().dcm_desired.y(), fresh.state().dcm_desired.y()) << "t = " << t;
     const BalanceState& st = layer.state();
-    const double omega = std::sqrt(kGravity / st.reference.c_W.z());
+    const double omega = std::sqrt(kStandardGravity / st.reference.c_W.z());
     const Eigen::Vector2d xi = st.reference.c_W.head<2>() + st.reference.cdot_W.head<2>() / omega;
     largest_offset = std::max(largest_offset, (st.dcm_desired - xi).norm());
     ++compared;

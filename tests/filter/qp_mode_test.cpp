@@ -26,7 +26,6 @@
 namespace dynfilter {
 namespace {
 
-constexpr double kGravity = 9.81;
 
 std::string sci(double x) {
   char buffer[32];
@@ -158,7 +157,7 @@ TEST(QpModeStanding, StaticStanceCarriesTheWeightWithTheCopOnTheSoles) {
   auto model = humanFigure();
   const ModelInfo& info = model->info();
   const ReferenceFrame ref = standingReference(*model);
-  const double weight = info.total_mass * kGravity;
+  const double weight = info.total_mass * kStandardGravity;
   const double mu = model->environment().ground.friction;
   DynamicsFilter filter(*model, qpOptions(), qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(ref);
@@ -217,7 +216,7 @@ TEST(QpModeStanding, StaticStanceCarriesTheWeightWithTheCopOnTheSoles) {
 TEST(QpModeStanding, AnIterationCapIsVisibleAndEq12StillHolds) {
   auto model = humanFigure();
   const ModelInfo& info = model->info();
-  const double weight = info.total_mass * kGravity;
+  const double weight = info.total_mass * kStandardGravity;
   const auto frames = test::simulateStandingSway(*model, 1.0, 1e-3);
   FilterOptions options = qpOptions();
   options.qp.solver.max_iterations = 2;
@@ -246,7 +245,7 @@ TEST(QpModeStanding, SwayingSquatKeepsContactsPhysical) {
   auto model = humanFigure();
   const ModelInfo& info = model->info();
   const auto frames = test::simulateStandingSway(*model, 1.0, 1e-3);
-  const double weight = info.total_mass * kGravity;
+  const double weight = info.total_mass * kStandardGravity;
   DynamicsFilter filter(*model, qpOptions(), qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(frames.front());
   PhysicsCheck check;
@@ -320,7 +319,7 @@ TEST(QpModePivot, ASpinningBoxSlowsAtFrictionsTwistThenHolds) {
   const ModelInfo& info = model->info();
   const double mu = model->environment().ground.friction;
   const double mass = 3.0, izz = 0.0125, r = std::hypot(0.1, 0.05), spin = 5.0, dt = 1e-3;
-  const double decel = mu * r * mass * kGravity / izz;
+  const double decel = mu * r * mass * kStandardGravity / izz;
   ReferenceFrame rest(info.nq, info.nv);
   rest.q << 0, 0, 0, 1, 0, 0, 0;
   rest.q[2] = standingBaseHeight(*model, rest.q);
@@ -351,7 +350,7 @@ TEST(QpModePivot, ASpinningBoxSlowsAtFrictionsTwistThenHolds) {
         EXPECT_EQ(c.pivot, -1) << "tick " << k << ": the twist opposes the turn";
         max_twist_gap = std::max(max_twist_gap, std::abs(twist - c.pivot * bound));
         max_decel_error = std::max(max_decel_error, std::abs(out.vdot[5] + decel) / decel);
-        EXPECT_NEAR(c.normal_force_n, mass * kGravity, 1e-6 * mass * kGravity) << "tick " << k;
+        EXPECT_NEAR(c.normal_force_n, mass * kStandardGravity, 1e-6 * mass * kStandardGravity) << "tick " << k;
       } else if (stopped_at_s < 0.0) {
         stopped_at_s = (k + 1) * dt;
       } else {
@@ -440,7 +439,7 @@ TEST(QpModeClip, KickInQpModeKeepsEveryContactPhysicalWherePaperModePulls) {
   ASSERT_GE(frames.size(), 200u);
   const double period = frames[1].time_s - frames[0].time_s;
   const int substeps = 4;  // 480 Hz on the 120 Hz clip, as dynfilter-offline does
-  const double weight = info.total_mass * kGravity;
+  const double weight = info.total_mass * kStandardGravity;
 
   FilterOptions qp = qpOptions(period / substeps);
   const ClipRun q = filterClip(*model, frames, substeps, qp);
@@ -511,7 +510,7 @@ void expectVisibleFallbackOnEveryTick(IDynamicsModel& model, const std::vector<R
                                       const QpSolverFactory& factory, std::uint32_t expected_violated,
                                       std::uint32_t* status_union_out) {
   const ModelInfo& info = model.info();
-  const double weight = info.total_mass * kGravity;
+  const double weight = info.total_mass * kStandardGravity;
   DynamicsFilter filter(model, qpOptions(), factory);
   filter.reset(frames.front());
   std::uint32_t status_union = 0;

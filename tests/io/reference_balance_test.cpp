@@ -20,11 +20,6 @@
 namespace dynfilter::io {
 namespace {
 
-std::unique_ptr<IDynamicsModel> mini() {
-  return test::makeModel("dart", urdf::loadUrdfFile(test::sourcePath("tests/models/mini_humanoid.urdf")),
-                         ModelOptions{});
-}
-
 // @p frames frames 10 ms apart, all at @p q (v, v̇ zero).
 ReferenceMotion stillMotion(const ModelInfo& info, const Eigen::VectorXd& q, int frames) {
   ReferenceMotion motion;
@@ -87,7 +82,7 @@ TEST(ReferenceBalance, TheFeasibleComPathOfAStillPendulumIsItsNearestPointInTheS
 // Standing still, the ZMP is the CoM's ground projection; accelerating the whole figure
 // along x by a (no rotation, L = 0) moves it to c − h a / g.
 TEST(ReferenceBalance, ZmpOfAStillAndOfAnAcceleratingFigure) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const ModelInfo& info = model->info();
   Eigen::VectorXd q0 = info.neutralConfiguration();
   q0[2] = standingBaseHeight(*model, q0);
@@ -128,7 +123,7 @@ TEST(ReferenceBalance, ZmpOfAStillAndOfAnAcceleratingFigure) {
 // upright): its CoM, and so its ZMP, is in front of the toes. The balance stage moves the
 // base back until the ZMP is over the soles; the feet do not move.
 TEST(ReferenceCleanup, BalanceStageBringsTheZmpOverTheFeet) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const ModelInfo& info = model->info();
   const double b = 0.35;
   Eigen::VectorXd q = info.neutralConfiguration();
@@ -173,7 +168,7 @@ TEST(ReferenceCleanup, BalanceStageBringsTheZmpOverTheFeet) {
 // Both feet still; the left one 5 cm up (hip, knee and ankle bent, sole level), the CoM
 // between the feet: the left foot is in stance too. 11.5 cm up it is not.
 TEST(ReferenceCleanup, AHoveringFootUnderTheCentreOfMassIsInStance) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const ModelInfo& info = model->info();
   for (const double lift_m : {0.05, 0.115}) {
     SCOPED_TRACE(lift_m);
@@ -197,7 +192,7 @@ TEST(ReferenceCleanup, AHoveringFootUnderTheCentreOfMassIsInStance) {
 // clean-up holds each sole as the reference does. Tilted by 0.2 rad the tilt is taken for a
 // retargeting error and the soles are laid flat.
 TEST(ReferenceCleanup, ASoleStandingOnItsEdgeKeepsItsTiltAFlatOneIsLevelled) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const ModelInfo& info = model->info();
   for (const double tilt : {0.5, -0.5, 0.2}) {
     SCOPED_TRACE(tilt);

@@ -25,12 +25,6 @@
 namespace dynfilter::io {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
-std::unique_ptr<IDynamicsModel> mini() {
-  return test::makeModel("dart", urdf::loadUrdfFile(test::sourcePath("tests/models/mini_humanoid.urdf")),
-                         ModelOptions{});
-}
 
 // A BVH whose hierarchy is the mini humanoid's (Z up, X forward: R_conv = I; offsets the
 // joint positions at q = 0, channels its joint axes in chain order), so that its forward
@@ -124,7 +118,7 @@ const char* const kChannelJoints[] = {"spine_twist", "arm_l_y", "arm_l_x", "cubi
 std::map<std::string, double> knownAngles(double s) {
   const double deg[] = {15, -40, 25, -60, 30, -20, -45, 10, 12, -35, 50, -15, 8, -12, -10, -20, 35, 10, -6};
   std::map<std::string, double> out;
-  for (std::size_t i = 0; i < std::size(kChannelJoints); ++i) out[kChannelJoints[i]] = s * deg[i] * kDeg;
+  for (std::size_t i = 0; i < std::size(kChannelJoints); ++i) out[kChannelJoints[i]] = s * deg[i] * test::kRadPerDeg;
   return out;
 }
 
@@ -137,7 +131,7 @@ std::string writeMiniBvh(const std::vector<std::map<std::string, double>>& frame
     std::snprintf(buf, sizeof buf, "%.17g 0 0.9 %.17g 0 0", 0.01 * static_cast<double>(k), 10.0 * k);
     out << buf;
     for (const char* j : kChannelJoints) {
-      std::snprintf(buf, sizeof buf, " %.17g", frames[k].at(j) / kDeg);
+      std::snprintf(buf, sizeof buf, " %.17g", frames[k].at(j) / test::kRadPerDeg);
       out << buf;
     }
     out << "\n";
@@ -195,7 +189,7 @@ void expectKnownAngles(const RetargetResult& r, const ModelInfo& info,
 }
 
 TEST(RetargetAnyUrdf, ChainModeRecoversKnownAnglesOnAnotherModel) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const std::vector<std::map<std::string, double>> truth = {knownAngles(0.0), knownAngles(1.0),
                                                             knownAngles(0.5)};
   const std::string path = writeMiniBvh(truth, "mini_chain.bvh");
@@ -206,11 +200,11 @@ TEST(RetargetAnyUrdf, ChainModeRecoversKnownAnglesOnAnotherModel) {
   // Base orientation: yaw 10° per frame.
   const Eigen::Quaterniond q1(r.motion.frames[1].q[3], r.motion.frames[1].q[4],
                               r.motion.frames[1].q[5], r.motion.frames[1].q[6]);
-  EXPECT_NEAR(Eigen::AngleAxisd(q1).angle(), 10.0 * kDeg, 1e-9);
+  EXPECT_NEAR(Eigen::AngleAxisd(q1).angle(), 10.0 * test::kRadPerDeg, 1e-9);
 }
 
 TEST(RetargetAnyUrdf, IkModeRecoversKnownAnglesOnAnotherModel) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const std::vector<std::map<std::string, double>> truth = {knownAngles(0.2), knownAngles(1.0),
                                                             knownAngles(0.6)};
   const std::string path = writeMiniBvh(truth, "mini_ik.bvh");
@@ -227,7 +221,7 @@ TEST(RetargetAnyUrdf, IkModeRecoversKnownAnglesOnAnotherModel) {
 }
 
 TEST(RetargetAnyUrdf, IkModeAutoScaleIsTheLegLengthRatio) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const std::vector<std::map<std::string, double>> truth = {knownAngles(0.0), knownAngles(0.1)};
   const std::string path = writeMiniBvh(truth, "mini_scale.bvh");
   RetargetMapping m = parseRetargetMapping(kIkMapping, "ik.yaml");
@@ -238,11 +232,11 @@ TEST(RetargetAnyUrdf, IkModeAutoScaleIsTheLegLengthRatio) {
 }
 
 TEST(RetargetAnyUrdf, IkModeStaysInsideTheLimits) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const ModelInfo& info = model->info();
   std::vector<std::map<std::string, double>> truth = {knownAngles(0.2), knownAngles(0.4)};
-  truth[1]["genu_l"] = -25.0 * kDeg;  // hyperextended: the knee's range is [0, 2.3]
-  truth[1]["cubitus_r"] = 20.0 * kDeg;  // beyond the elbow's upper limit 0
+  truth[1]["genu_l"] = -25.0 * test::kRadPerDeg;  // hyperextended: the knee's range is [0, 2.3]
+  truth[1]["cubitus_r"] = 20.0 * test::kRadPerDeg;  // beyond the elbow's upper limit 0
   const std::string path = writeMiniBvh(truth, "mini_limits.bvh");
   const RetargetResult r = retargetBvhFile(path, parseRetargetMapping(kIkMapping, "ik.yaml"), *model);
   for (const ReferenceFrame& f : r.motion.frames)
@@ -255,7 +249,7 @@ TEST(RetargetAnyUrdf, IkModeStaysInsideTheLimits) {
 }
 
 TEST(RetargetAnyUrdf, UnmappedJointsAreAnErrorUnlessAllowed) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const std::vector<std::map<std::string, double>> truth = {knownAngles(0.0), knownAngles(1.0)};
   const std::string path = writeMiniBvh(truth, "mini_unmapped.bvh");
   std::string text = kChainMapping;
@@ -276,11 +270,11 @@ TEST(RetargetAnyUrdf, UnmappedJointsAreAnErrorUnlessAllowed) {
   EXPECT_EQ(r.unmapped_joints, (std::vector<std::string>{"cubitus_l", "cubitus_r"}));
   const ModelInfo& info = model->info();
   EXPECT_EQ(r.motion.frames[1].q[info.configurationIndex(info.findJoint("cubitus_l"))], 0.0);
-  EXPECT_NEAR(r.motion.frames[1].q[info.configurationIndex(info.findJoint("genu_l"))], 50.0 * kDeg, 1e-9);
+  EXPECT_NEAR(r.motion.frames[1].q[info.configurationIndex(info.findJoint("genu_l"))], 50.0 * test::kRadPerDeg, 1e-9);
 }
 
 TEST(RetargetAnyUrdf, ChainModeRejectsAGroupOfMoreThanThreeJoints) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const std::string path = writeMiniBvh({knownAngles(0.0), knownAngles(1.0)}, "mini_group.bvh");
   // Without the thigh and shank, the six leg joints lie between the hips and the sole.
   std::string text = kChainMapping;
@@ -296,7 +290,7 @@ TEST(RetargetAnyUrdf, ChainModeRejectsAGroupOfMoreThanThreeJoints) {
 }
 
 TEST(KinematicTree, ChoosesTheTrunkByStructure) {
-  auto m = mini();
+  auto m = test::makeMiniHumanoid();
   EXPECT_EQ(m->info().body_names[static_cast<std::size_t>(chooseTrunkBody(*m))], "chest");
   auto human = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   EXPECT_EQ(human->info().body_names[static_cast<std::size_t>(chooseTrunkBody(*human))], "torso");
@@ -315,7 +309,7 @@ TEST(KinematicTree, ChoosesTheTrunkByStructure) {
 // With no targets, PoseIk's answer for a joint away from its limits minimises
 // w_p² (q − q_p)² + w_c² (q − q_prev)²: q = (w_p² q_p + w_c² q_prev) / (w_p² + w_c²).
 TEST(PoseIk, ContinuityTermIsTheWeightedMeanOfPostureAndPrevious) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const ModelInfo& info = model->info();
   const int j = info.findJoint("genu_l");
   const int qi = info.configurationIndex(j), vi = info.velocityIndex(j);
@@ -339,7 +333,7 @@ TEST(PoseIk, ContinuityTermIsTheWeightedMeanOfPostureAndPrevious) {
 }
 
 TEST(ReferenceCleanup, StanceFeetStayStillOnTheGroundAndJointsInsideLimits) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const ModelInfo& info = model->info();
   Eigen::VectorXd q = info.neutralConfiguration();
   q[info.configurationIndex(info.findJoint("genu_l"))] = 0.3;
@@ -418,7 +412,7 @@ TEST(ReferenceCleanup, StanceFeetStayStillOnTheGroundAndJointsInsideLimits) {
 }
 
 TEST(ReferenceCleanup, ScheduleSeesASwingFoot) {
-  auto model = mini();
+  auto model = test::makeMiniHumanoid();
   const ModelInfo& info = model->info();
   const Eigen::VectorXd q0 = info.neutralConfiguration();
   const double z0 = standingBaseHeight(*model, q0);

@@ -21,7 +21,6 @@
 namespace dynfilter::io {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 
 std::unique_ptr<IDynamicsModel> humanFigure() {
   return test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
@@ -153,8 +152,8 @@ TEST(Retarget, RoundTripSegmentDirections) {
     for (std::size_t b = 0; b < bones.size(); ++b) {
       const double mean = sum[b] / n;
       std::printf("  %-12s -> %-10s %6.2f / %6.2f deg\n", bones[b].first.c_str(),
-                  bones[b].second.c_str(), mean / kDeg, worst[b] / kDeg);
-      EXPECT_LT(mean, 15.0 * kDeg) << bones[b].first;
+                  bones[b].second.c_str(), mean / test::kRadPerDeg, worst[b] / test::kRadPerDeg);
+      EXPECT_LT(mean, 15.0 * test::kRadPerDeg) << bones[b].first;
     }
   }
 }
@@ -193,14 +192,14 @@ TEST(Retarget, RoundTripEndEffectorsRelativeToPelvis) {
     std::printf("%s joint centres relative to the pelvis: mean direction error / distance\n",
                 c.name);
     for (std::size_t i = 0; i < links.size(); ++i) {
-      std::printf("  %-7s %6.2f deg  %.3f m\n", links[i].c_str(), dir_sum[i] / n / kDeg,
+      std::printf("  %-7s %6.2f deg  %.3f m\n", links[i].c_str(), dir_sum[i] / n / test::kRadPerDeg,
                   dist_sum[i] / n);
       // Measured (mean over every 25th frame): feet ≤ 2.3°, head ≤ 10.6°, hands ≤ 25.7°
       // (the figure's shoulders and trunk are placed differently from the actor's, and the
       // pelvis-to-hand vector is short); distances ≤ 0.17 m.
       const bool hand = links[i].find("hand") != std::string::npos;
       const bool foot = links[i].find("foot") != std::string::npos;
-      EXPECT_LT(dir_sum[i] / n, (hand ? 35.0 : foot ? 5.0 : 15.0) * kDeg) << links[i];
+      EXPECT_LT(dir_sum[i] / n, (hand ? 35.0 : foot ? 5.0 : 15.0) * test::kRadPerDeg) << links[i];
       EXPECT_LT(dist_sum[i] / n, 0.20) << links[i];
     }
   }
@@ -410,14 +409,14 @@ TEST(Retarget, SyntheticBvhMapsToKnownAngles) {
       const Eigen::VectorXd& q = r.motion.frames[k].q;
       for (int j = 0; j < info.nj; ++j) {
         const std::string& name = info.joint_names[static_cast<std::size_t>(j)];
-        double expected = f.deg.at(name) * kDeg;
+        double expected = f.deg.at(name) * test::kRadPerDeg;
         if (clamp) expected = std::clamp(expected, info.q_lower[j], info.q_upper[j]);
         EXPECT_NEAR(q[info.configurationIndex(j)], expected, 1e-9) << name << " frame " << k;
       }
       const Eigen::Matrix3d R_expected =
-          (Eigen::AngleAxisd(f.root_rot_deg[0] * kDeg, Eigen::Vector3d::UnitZ()) *
-           Eigen::AngleAxisd(f.root_rot_deg[1] * kDeg, Eigen::Vector3d::UnitX()) *
-           Eigen::AngleAxisd(f.root_rot_deg[2] * kDeg, Eigen::Vector3d::UnitY()))
+          (Eigen::AngleAxisd(f.root_rot_deg[0] * test::kRadPerDeg, Eigen::Vector3d::UnitZ()) *
+           Eigen::AngleAxisd(f.root_rot_deg[1] * test::kRadPerDeg, Eigen::Vector3d::UnitX()) *
+           Eigen::AngleAxisd(f.root_rot_deg[2] * test::kRadPerDeg, Eigen::Vector3d::UnitY()))
               .toRotationMatrix();
       const Eigen::Quaterniond quat(q[3], q[4], q[5], q[6]);
       EXPECT_LT((quat.toRotationMatrix() - R_expected).norm(), 1e-9);
@@ -430,7 +429,7 @@ TEST(Retarget, SyntheticBvhMapsToKnownAngles) {
         r.limits[static_cast<std::size_t>(info.findJoint("r_knee"))];
     EXPECT_EQ(knee.frames_outside, 2);
     EXPECT_DOUBLE_EQ(knee.fraction_outside, 1.0);
-    EXPECT_NEAR(knee.worst_excess_rad, 20.0 * kDeg, 1e-9);
+    EXPECT_NEAR(knee.worst_excess_rad, 20.0 * test::kRadPerDeg, 1e-9);
     EXPECT_EQ(knee.worst_frame, 0);
     EXPECT_EQ(r.clamped, clamp);
     EXPECT_NE(formatLimitReport(r).find("r_knee"), std::string::npos);
@@ -470,14 +469,14 @@ TEST(Retarget, SolesAreLevelledOverTheirStanceFrames) {
     ASSERT_EQ(r.soles.size(), flat ? 2u : 0u);
     const Eigen::VectorXd& q = r.motion.frames[20].q;
     auto angle = [&](const char* joint) { return q[info.configurationIndex(info.findJoint(joint))]; };
-    EXPECT_NEAR(angle("l_ankle_roll"), flat ? 0.0 : 15.0 * kDeg, 1e-9);
-    EXPECT_NEAR(angle("r_ankle_roll"), flat ? 0.0 : -10.0 * kDeg, 1e-9);
-    EXPECT_NEAR(angle("l_knee"), 30.0 * kDeg, 1e-9);
+    EXPECT_NEAR(angle("l_ankle_roll"), flat ? 0.0 : 15.0 * test::kRadPerDeg, 1e-9);
+    EXPECT_NEAR(angle("r_ankle_roll"), flat ? 0.0 : -10.0 * test::kRadPerDeg, 1e-9);
+    EXPECT_NEAR(angle("l_knee"), 30.0 * test::kRadPerDeg, 1e-9);
     EXPECT_NEAR(angle("l_ankle_pitch"), 0.0, 1e-9);
     for (const SoleCalibration& c : r.soles) {
       EXPECT_GE(c.stance_frames, 10) << c.link;
       EXPECT_TRUE(c.levelled) << c.link;
-      EXPECT_NEAR(c.angle_rad, (c.link == "l_foot" ? 15.0 : 10.0) * kDeg, 1e-9) << c.link;
+      EXPECT_NEAR(c.angle_rad, (c.link == "l_foot" ? 15.0 : 10.0) * test::kRadPerDeg, 1e-9) << c.link;
     }
   }
 }

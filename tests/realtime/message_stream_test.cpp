@@ -6,13 +6,13 @@
 #include <gtest/gtest.h>
 
 #include "dynfilter/realtime/message_stream.hpp"
+#include "support/test_support.hpp"
 
 namespace dynfilter::realtime {
 namespace {
 
 constexpr double kPeriod = 1.0 / 60.0;   // a 60 Hz sender
 constexpr double kSenderAhead = 1000.0;  // its clock is 1000 s ahead of the receiver's
-constexpr double kHour = 3600.0;
 
 // The k-th message of a well-behaved sender: (stamp, receive time), 1 ms transport delay.
 double stampOf(int k) { return kSenderAhead + k * kPeriod; }
@@ -23,7 +23,7 @@ TEST(MessageStream, AFutureStampedMessageIsRejectedAndTheStreamGoesOn) {
   EXPECT_EQ(stream.judge(stampOf(0), receiveOf(0), 0), StreamVerdict::kNewStream);
   for (int k = 1; k < 30; ++k) ASSERT_EQ(stream.judge(stampOf(k), receiveOf(k), k), StreamVerdict::kAccepted);
   // One message stamped an hour ahead (a sender with a wrong clock on the same channel).
-  EXPECT_EQ(stream.judge(stampOf(30) + kHour, receiveOf(30), 7), StreamVerdict::kOffStreamClock);
+  EXPECT_EQ(stream.judge(stampOf(30) + test::kSecondsPerHour, receiveOf(30), 7), StreamVerdict::kOffStreamClock);
   // The real stream is not disturbed: not one of its messages is lost.
   for (int k = 30; k < 60; ++k) ASSERT_EQ(stream.judge(stampOf(k), receiveOf(k), k), StreamVerdict::kAccepted) << k;
   EXPECT_EQ(stream.counters().streams, 1u);
@@ -37,7 +37,7 @@ TEST(MessageStream, AFutureStampedFirstMessageLocksTheRealStreamOutForTwoMessage
   StreamOptions options;
   options.new_stream_messages = 3;
   MessageStream stream(options);
-  EXPECT_EQ(stream.judge(stampOf(0) + kHour, receiveOf(0)), StreamVerdict::kNewStream);
+  EXPECT_EQ(stream.judge(stampOf(0) + test::kSecondsPerHour, receiveOf(0)), StreamVerdict::kNewStream);
   // The real stream is off the (bogus) stream's clock: its first two are evidence ...
   EXPECT_EQ(stream.judge(stampOf(1), receiveOf(1)), StreamVerdict::kOffStreamClock);
   EXPECT_EQ(stream.judge(stampOf(2), receiveOf(2)), StreamVerdict::kOffStreamClock);
@@ -125,10 +125,10 @@ TEST(MessageStream, OnTheReceiversClockStampsFarFromTheReceiveTimeNeverStartAStr
   options.max_clock_offset_s = 0.1;
   MessageStream stream(options);
   for (int k = 0; k < 5; ++k)  // stamped an hour ahead, again and again
-    EXPECT_EQ(stream.judge(receiveOf(k) + kHour, receiveOf(k)), StreamVerdict::kFarFromReceiveTime);
+    EXPECT_EQ(stream.judge(receiveOf(k) + test::kSecondsPerHour, receiveOf(k)), StreamVerdict::kFarFromReceiveTime);
   EXPECT_FALSE(stream.active());
   EXPECT_EQ(stream.judge(receiveOf(5) - 1e-3, receiveOf(5)), StreamVerdict::kNewStream);
-  EXPECT_EQ(stream.judge(receiveOf(6) + kHour, receiveOf(6)), StreamVerdict::kFarFromReceiveTime);
+  EXPECT_EQ(stream.judge(receiveOf(6) + test::kSecondsPerHour, receiveOf(6)), StreamVerdict::kFarFromReceiveTime);
   EXPECT_EQ(stream.judge(receiveOf(7) - 1e-3, receiveOf(7)), StreamVerdict::kAccepted);
   EXPECT_EQ(stream.counters().far_from_receive_time, 6u);
   EXPECT_EQ(stream.counters().streams, 1u);

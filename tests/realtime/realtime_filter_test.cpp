@@ -164,8 +164,6 @@ double runStream(RealtimeFilter& rt, const std::vector<ReferenceFrame>& frames, 
   return worst;
 }
 
-constexpr double kHour = 3600.0;
-
 TEST_F(Realtime, OneFutureStampedFrameDoesNotInterruptTheRealStream) {
   RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
   bool rejected = true;
@@ -174,7 +172,7 @@ TEST_F(Realtime, OneFutureStampedFrameDoesNotInterruptTheRealStream) {
       [&](int tick, double now) {
         if (tick != 500) return;
         ReferenceFrame bogus = frames_[500];
-        bogus.time_s += kSenderClock + kHour;
+        bogus.time_s += kSenderClock + test::kSecondsPerHour;
         bogus.q.tail(model_->nj()).array() += 0.5;  // and far from the motion
         rejected = !rt.addReference(bogus, now, 12345);
       });
@@ -196,7 +194,7 @@ TEST_F(Realtime, AFutureStampedFirstFrameThenTheRealStreamIsTrackedWithinTheStal
       [&](int tick, double now) {
         if (tick != 0) return;
         ReferenceFrame bogus = frames_[0];
-        bogus.time_s += kSenderClock + kHour;
+        bogus.time_s += kSenderClock + test::kSecondsPerHour;
         EXPECT_TRUE(rt.addReference(bogus, now, 0)) << "nothing to tell it from yet";
       });
   // Two real frames are evidence, the third (tick 32) starts the stream; 50 ms of delay
@@ -263,7 +261,7 @@ TEST_F(Realtime, RobotStatesFollowTheirOwnStream) {
   const double robot_clock = 77.0;
   for (int k = 0; k < 100; ++k) ASSERT_TRUE(rt.addMeasuredState(f.q, f.v, robot_clock + 0.001 * k, 0.001 * k));
   // A state stamped an hour ahead, and a stale copy of an old one: neither is used.
-  EXPECT_FALSE(rt.addMeasuredState(f.q, f.v, robot_clock + kHour, 0.1));
+  EXPECT_FALSE(rt.addMeasuredState(f.q, f.v, robot_clock + test::kSecondsPerHour, 0.1));
   EXPECT_FALSE(rt.addMeasuredState(f.q, f.v, robot_clock + 0.05, 0.1));
   EXPECT_EQ(rt.stateStream().lastRejection(), StreamVerdict::kNotAfterPrevious);
   // The robot restarts with its clock at 0: followed from its third state.

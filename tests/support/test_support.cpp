@@ -7,6 +7,7 @@
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/dart/dart_model.hpp"
 #include "dynfilter/ode/ode_model.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
 
 namespace dynfilter::test {
 
@@ -24,6 +25,10 @@ std::unique_ptr<IDynamicsModel> makeModel(const std::string& backend,
   if (backend == "dart") return dart_backend::makeDartModel(robot, options);
   if (backend == "ode") return ode_backend::makeOdeModel(robot, options);
   throw std::invalid_argument("unknown backend " + backend);
+}
+
+std::unique_ptr<IDynamicsModel> makeMiniHumanoid() {
+  return makeModel("dart", urdf::loadUrdfFile(testModelPath("mini_humanoid.urdf")), ModelOptions{});
 }
 
 void randomState(const IDynamicsModel& model, std::mt19937& rng, double velocity_scale,

@@ -31,6 +31,11 @@ struct BackendName {
     return info.param;
   }
 };
+/// tests/models/mini_humanoid.urdf on DART, default options.
+std::unique_ptr<IDynamicsModel> makeMiniHumanoid();
+/// Radians per degree; seconds per hour.
+inline constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
+inline constexpr double kSecondsPerHour = 3600.0;
 /// Builds @p robot with the named backend.
 std::unique_ptr<IDynamicsModel> makeModel(const std::string& backend,
                                           const urdf::RobotDescription& robot,

@@ -16,8 +16,6 @@
 namespace dynfilter::ode_backend {
 namespace {
 
-Eigen::Vector3d toEigen(const dReal* v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
-
 Eigen::Isometry3d pose(const Eigen::Vector3d& p, const Eigen::Matrix3d& R) {
   Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
   X.linear() = R;

@@ -16,6 +16,9 @@
 
 namespace dynfilter::ode_backend {
 
+/// An ODE 3-vector (dVector3, or the first three of any dReal array) as Eigen's.
+inline Eigen::Vector3d toEigen(const dReal* v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
+
 /// What a geom is to the model.
 struct GeomRole {
   bool robot = false;

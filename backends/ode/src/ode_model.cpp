@@ -30,9 +30,6 @@ constexpr int kMaxSimulationContacts = 256;
 // Fraction of a mimic follower's position error its motor removes per step.
 constexpr double kMimicErrorReduction = 0.2;
 
-Eigen::Vector3d toEigen(const dReal* v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
-
-
 /// World state of one ODE body: origin (= CoM) position, rotation, and the velocities of
 /// the origin. A body-less node (fixed-base root) is the world at rest.
 struct BodyState {

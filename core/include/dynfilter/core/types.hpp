@@ -12,7 +12,9 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Matrix6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
+/// Standard gravity, the magnitude the models use when nothing else is configured (m/s²).
+inline constexpr double kStandardGravity = 9.81;
 /// Gravity in the world frame used when nothing else is configured (m/s²).
-inline const Eigen::Vector3d kStandardGravity_W{0.0, 0.0, -9.81};
+inline const Eigen::Vector3d kStandardGravity_W{0.0, 0.0, -kStandardGravity};
 
 }  // namespace dynfilter
