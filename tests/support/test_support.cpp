@@ -1,6 +1,12 @@
 #include "support/test_support.hpp"
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 #include "dynfilter/core/lie_group.hpp"
@@ -16,6 +22,15 @@ std::string sourcePath(const std::string& relative) {
 }
 std::string testModelPath(const std::string& name) { return sourcePath("tests/models/" + name); }
 std::string humanFigurePath() { return sourcePath("models/human_figure.urdf"); }
+
+ProgramRun runProgram(const std::string& binary, const std::string& args) {
+  const std::string log = testing::TempDir() + "/program_output_" + std::to_string(getpid()) + ".txt";
+  const int status = std::system((binary + " " + args + " > " + log + " 2>&1").c_str());
+  std::ifstream in(log);
+  std::stringstream text;
+  text << in.rdbuf();
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+}
 
 std::vector<std::string> allBackends() { return {"dart", "ode"}; }
 

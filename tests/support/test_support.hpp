@@ -23,6 +23,15 @@ std::string testModelPath(const std::string& name);
 /// models/human_figure.urdf
 std::string humanFigurePath();
 
+/// How a program ran: its exit code (−1 when it did not exit normally) and what it printed.
+struct ProgramRun {
+  int exit_code = -1;
+  std::string output;  ///< stdout and stderr together
+};
+/// Runs `binary args` through the shell and captures its output (through a file per
+/// process: ctest runs the tests of one executable in parallel processes).
+ProgramRun runProgram(const std::string& binary, const std::string& args);
+
 /// Backends the parameterised suites run on.
 std::vector<std::string> allBackends();
 /// Names parameterised instances after the backend ("dart", "ode").

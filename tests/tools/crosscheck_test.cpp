@@ -1,7 +1,4 @@
 // dynfilter-crosscheck as a user runs it: DART against ODE on real files.
-#include <cstdio>
-#include <unistd.h>
-#include <cstdlib>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -14,23 +11,7 @@
 
 namespace {
 
-struct ProcessResult {
-  int exit_code;
-  std::string out;
-};
-
-ProcessResult run(const std::string& binary, const std::string& args) {
-  // One file per process: ctest runs tests of this binary in parallel processes.
-  const std::string log =
-      testing::TempDir() + "/crosscheck_output_" + std::to_string(getpid()) + ".txt";
-  const int status = std::system((binary + " " + args + " > " + log + " 2>&1").c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
-}
-
-ProcessResult crosscheck(const std::string& args) { return run(DYNFILTER_CROSSCHECK_BIN, args); }
+dynfilter::test::ProgramRun crosscheck(const std::string& args) { return dynfilter::test::runProgram(DYNFILTER_CROSSCHECK_BIN, args); }
 
 std::string readFile(const std::string& path) {
   std::ifstream in(path);
@@ -41,10 +22,10 @@ std::string readFile(const std::string& path) {
 
 TEST(Crosscheck, HumanFigureAgreesBetweenDartAndOde) {
   const std::string json = testing::TempDir() + "/crosscheck.json";
-  const ProcessResult r = crosscheck(dynfilter::test::humanFigurePath() + " --states 100 --json " + json);
-  EXPECT_EQ(r.exit_code, 0) << r.out;
-  EXPECT_NE(r.out.find("mass matrix A"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("PASS"), std::string::npos);
+  const dynfilter::test::ProgramRun r = crosscheck(dynfilter::test::humanFigurePath() + " --states 100 --json " + json);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("mass matrix A"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("PASS"), std::string::npos);
   // The JSON carries q, v and each backend's A and b for every state.
   const auto j = nlohmann::json::parse(readFile(json));
   ASSERT_EQ(j["states"].size(), 100u);
@@ -56,9 +37,9 @@ TEST(Crosscheck, HumanFigureAgreesBetweenDartAndOde) {
 }
 
 TEST(Crosscheck, QuadrupedAgreesBetweenDartAndOde) {
-  const ProcessResult r =
+  const dynfilter::test::ProgramRun r =
       crosscheck(dynfilter::test::testModelPath("quadruped.urdf") + " --states 100");
-  EXPECT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_EQ(r.exit_code, 0) << r.output;
 }
 
 TEST(Crosscheck, AWrongInertiaInOneEngineIsCaught) {
@@ -71,20 +52,20 @@ TEST(Crosscheck, AWrongInertiaInOneEngineIsCaught) {
   urdf = m.prefix().str() + m[1].str() + std::to_string(1.02 * mass) + m.suffix().str();
   const std::string wrong = testing::TempDir() + "/wrong_thigh.urdf";
   std::ofstream(wrong) << urdf;
-  const ProcessResult r = crosscheck(dynfilter::test::humanFigurePath() + " --model-b " + wrong +
+  const dynfilter::test::ProgramRun r = crosscheck(dynfilter::test::humanFigurePath() + " --model-b " + wrong +
                                      " --states 10");
-  EXPECT_EQ(r.exit_code, 1) << r.out;
-  EXPECT_NE(r.out.find("FAIL"), std::string::npos) << r.out;
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("FAIL"), std::string::npos) << r.output;
 }
 
 TEST(Crosscheck, AFilteredMotionSatisfiesEq12InTheOtherBackend) {
   const std::string out = testing::TempDir() + "/squat_for_crosscheck.csv";
-  const ProcessResult filtered = run(DYNFILTER_OFFLINE_BIN, dynfilter::test::sourcePath("data/squat_reference.csv") +
+  const dynfilter::test::ProgramRun filtered = dynfilter::test::runProgram(DYNFILTER_OFFLINE_BIN, dynfilter::test::sourcePath("data/squat_reference.csv") +
                                      " -o " + out + " --no-progress -q");
-  ASSERT_EQ(filtered.exit_code, 0) << filtered.out;
-  const ProcessResult ok = crosscheck("--filtered " + out + " --filtered-backend dart");
-  EXPECT_EQ(ok.exit_code, 0) << ok.out;
-  EXPECT_NE(ok.out.find("re-evaluated with the ode backend"), std::string::npos) << ok.out;
+  ASSERT_EQ(filtered.exit_code, 0) << filtered.output;
+  const dynfilter::test::ProgramRun ok = crosscheck("--filtered " + out + " --filtered-backend dart");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_NE(ok.output.find("re-evaluated with the ode backend"), std::string::npos) << ok.output;
 
   // Tamper with one torque: the other backend must notice. Replace the l_hip_pitch.tau
   // value of the 100th data row by 0.
@@ -112,8 +93,8 @@ TEST(Crosscheck, AFilteredMotionSatisfiesEq12InTheOtherBackend) {
   }
   in.close();
   std::ofstream(out) << text;
-  const ProcessResult bad = crosscheck("--filtered " + out + " --filtered-backend dart");
-  EXPECT_EQ(bad.exit_code, 1) << bad.out;
+  const dynfilter::test::ProgramRun bad = crosscheck("--filtered " + out + " --filtered-backend dart");
+  EXPECT_EQ(bad.exit_code, 1) << bad.output;
 }
 
 }  // namespace

@@ -1,8 +1,6 @@
 // dynfilter-offline as a user runs it: real files in, real files out, exit codes.
 #include <cmath>
 #include <cstdio>
-#include <unistd.h>
-#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -14,22 +12,7 @@
 
 namespace {
 
-struct ProcessResult {
-  int exit_code;
-  std::string stderr_text;
-};
-
-ProcessResult runOffline(const std::string& args) {
-  // One file per process: ctest runs tests of this binary in parallel processes.
-  const std::string err =
-      testing::TempDir() + "/offline_stderr_" + std::to_string(getpid()) + ".txt";
-  const std::string cmd = std::string(DYNFILTER_OFFLINE_BIN) + " " + args + " 2> " + err;
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(err);
-  std::stringstream text;
-  text << in.rdbuf();
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
-}
+dynfilter::test::ProgramRun runOffline(const std::string& args) { return dynfilter::test::runProgram(DYNFILTER_OFFLINE_BIN, args); }
 
 std::vector<std::vector<std::string>> readCsv(const std::string& path) {
   std::vector<std::vector<std::string>> rows;
@@ -58,10 +41,10 @@ const std::string kSquat = dynfilter::test::sourcePath("data/squat_reference.csv
 TEST(Offline, FiltersTheSquatIntoAConsistentMotion) {
   const std::string out = testing::TempDir() + "/squat_out.csv";
   std::remove(out.c_str());
-  const ProcessResult run = runOffline(kSquat + " -o " + out + " --no-progress");
-  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
-  EXPECT_NE(run.stderr_text.find("max Eq. 12 residual"), std::string::npos) << run.stderr_text;
-  EXPECT_NE(run.stderr_text.find("tracking RMS"), std::string::npos);
+  const dynfilter::test::ProgramRun run = runOffline(kSquat + " -o " + out + " --no-progress");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("max Eq. 12 residual"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("tracking RMS"), std::string::npos);
   const auto rows = readCsv(out);
   const auto reference = readCsv(kSquat);
   // One row per reference frame (the reference has 2 comment lines and a header).
@@ -84,8 +67,8 @@ TEST(Offline, FiltersTheSquatIntoAConsistentMotion) {
 TEST(Offline, BodyPositionsForPicturesMatchTheFilteredBase) {
   const std::string out = testing::TempDir() + "/squat_bodies_out.csv";
   const std::string bodies = testing::TempDir() + "/squat_bodies.csv";
-  const ProcessResult run = runOffline(kSquat + " -o " + out + " --no-progress -q --bodies-csv " + bodies);
-  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  const dynfilter::test::ProgramRun run = runOffline(kSquat + " -o " + out + " --no-progress -q --bodies-csv " + bodies);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
   const auto main = readCsv(out);
   const auto rows = readCsv(bodies);
   ASSERT_EQ(rows.size(), 1 + 2 * (main.size() - 1)) << "a reference and a filtered row per frame";
@@ -122,9 +105,9 @@ TEST(Offline, AReferenceMadeOnLevelGroundFollowsTheSlopeGiven) {
   file.close();
   const std::string out = testing::TempDir() + "/slope_out.csv";
   const std::string bodies = testing::TempDir() + "/slope_bodies.csv";
-  const ProcessResult run = runOffline(moving + " -o " + out + " --no-progress -q --slope-deg 10 " +
+  const dynfilter::test::ProgramRun run = runOffline(moving + " -o " + out + " --no-progress -q --slope-deg 10 " +
                                        "--slope-heading-deg 0 --bodies-csv " + bodies);
-  ASSERT_EQ(run.exit_code, 0) << run.stderr_text;
+  ASSERT_EQ(run.exit_code, 0) << run.output;
   const auto rows = readCsv(bodies);
   const auto reference = readCsv(kSquat);
   const int x = column(rows[0], "pelvis.x"), z = column(rows[0], "pelvis.z");
@@ -163,17 +146,17 @@ TEST(Offline, ABrokenReferenceIsRejectedAndNothingIsWritten) {
   outfile.close();
   const std::string out = testing::TempDir() + "/never_written.csv";
   std::remove(out.c_str());
-  const ProcessResult run = runOffline(bad + " -o " + out);
+  const dynfilter::test::ProgramRun run = runOffline(bad + " -o " + out);
   EXPECT_EQ(run.exit_code, 2);
-  EXPECT_NE(run.stderr_text.find("bad_reference.csv:10:12"), std::string::npos) << run.stderr_text;
+  EXPECT_NE(run.output.find("bad_reference.csv:10:12"), std::string::npos) << run.output;
   EXPECT_FALSE(exists(out));
   EXPECT_FALSE(exists(testing::TempDir() + "/never_written.contacts.csv"));
 }
 
 TEST(Offline, AnUnknownModelFileIsAClearError) {
-  const ProcessResult run = runOffline(kSquat + " -o /tmp/x.csv --model /nonexistent/robot.urdf");
+  const dynfilter::test::ProgramRun run = runOffline(kSquat + " -o /tmp/x.csv --model /nonexistent/robot.urdf");
   EXPECT_EQ(run.exit_code, 2);
-  EXPECT_NE(run.stderr_text.find("/nonexistent/robot.urdf"), std::string::npos);
+  EXPECT_NE(run.output.find("/nonexistent/robot.urdf"), std::string::npos);
 }
 
 }  // namespace
