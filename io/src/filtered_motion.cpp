@@ -28,6 +28,12 @@ const char* kindName(ContactKind kind) {
   return "unknown";
 }
 
+}  // namespace
+
+// Named, not anonymous: a member of FilteredMotionWriter::Impl (gcc warns on a member
+// of a type with internal linkage once this file is part of a unity batch).
+namespace detail {
+
 // A file being written at a temporary name next to its final path.
 class TempFile {
  public:
@@ -103,6 +109,10 @@ class TempFile {
   std::FILE* file_ = nullptr;
 };
 
+}  // namespace detail
+
+namespace {
+
 void appendHeader(std::string& out, const std::vector<std::string>& names) {
   for (std::size_t i = 0; i < names.size(); ++i) {
     if (i > 0) out += ',';
@@ -148,8 +158,8 @@ struct FilteredMotionWriter::Impl {
   std::string contacts_path;
   ModelInfo info;
   std::vector<std::string> body_names;
-  TempFile main_file;
-  TempFile contacts_file;
+  detail::TempFile main_file;
+  detail::TempFile contacts_file;
   std::string row;
   std::size_t rows = 0;
   bool committed = false;

@@ -10,8 +10,6 @@
 namespace dynfilter {
 namespace {
 
-constexpr double g = 9.81;
-
 class ClosedForm : public testing::TestWithParam<std::string> {
  protected:
   std::unique_ptr<IDynamicsModel> load(const std::string& name, bool floating,
@@ -37,11 +35,11 @@ TEST_P(ClosedForm, SinglePendulum) {
     model->massMatrix(A);
     model->bias(b);
     EXPECT_NEAR(A(0, 0), I + m * l * l, 1e-12);
-    EXPECT_NEAR(b[0], m * g * l * std::sin(theta), 1e-12);
+    EXPECT_NEAR(b[0], m * kStandardGravity * l * std::sin(theta), 1e-12);
     Eigen::VectorXd tau(1);
     tau << 3.0;
     model->forwardDynamics(tau, vdot);
-    EXPECT_NEAR(vdot[0], (3.0 - m * g * l * std::sin(theta)) / (I + m * l * l), 1e-12);
+    EXPECT_NEAR(vdot[0], (3.0 - m * kStandardGravity * l * std::sin(theta)) / (I + m * l * l), 1e-12);
   }
 }
 
@@ -67,9 +65,9 @@ TEST_P(ClosedForm, DoublePendulum) {
     A_ref(1, 1) = I2 + m2 * c2 * c2;
     const double h = m2 * L1 * c2 * s;
     Eigen::Vector2d b_ref;
-    b_ref[0] = -h * (2 * w1 * w2 + w2 * w2) + (m1 * c1 + m2 * L1) * g * std::sin(t1) +
-               m2 * c2 * g * std::sin(t1 + t2);
-    b_ref[1] = h * w1 * w1 + m2 * c2 * g * std::sin(t1 + t2);
+    b_ref[0] = -h * (2 * w1 * w2 + w2 * w2) + (m1 * c1 + m2 * L1) * kStandardGravity * std::sin(t1) +
+               m2 * c2 * kStandardGravity * std::sin(t1 + t2);
+    b_ref[1] = h * w1 * w1 + m2 * c2 * kStandardGravity * std::sin(t1 + t2);
     EXPECT_LT((A - A_ref).cwiseAbs().maxCoeff(), 1e-12);
     EXPECT_LT((b - b_ref).cwiseAbs().maxCoeff(), 1e-12);
   }
