@@ -1,7 +1,6 @@
 #include "dynfilter/core/contact_qp.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -10,6 +9,7 @@
 #include <stdexcept>
 
 #include "dynfilter/core/lie_group.hpp"
+#include "tick_clock.hpp"
 
 namespace dynfilter {
 namespace {
@@ -24,8 +24,6 @@ double finiteOr(double x, double fallback) { return std::isfinite(x) ? x : fallb
 
 }  // namespace
 
-using Clock = std::chrono::steady_clock;
-
 struct ContactQp::SizeClass {
   int capacity = 0;       // τ_C slots
   int link_capacity = 0;  // links whose rows fit
@@ -36,10 +34,10 @@ struct ContactQp::SizeClass {
 };
 
 QpSolveInfo ContactQp::timedSolve(SizeClass& sc, ContactQpReport& report, bool bounds_only) {
-  const Clock::time_point t0 = Clock::now();
+  const detail::TickClock::time_point t0 = detail::TickClock::now();
   const QpSolveInfo info =
       bounds_only ? sc.solver->resolveWithNewBounds(sc.qp, sc.x) : sc.solver->solve(sc.qp, sc.x);
-  report.solver_time_s += std::chrono::duration<double>(Clock::now() - t0).count();
+  report.solver_time_s += detail::secondsSince(t0);
   return info;
 }
 

@@ -11,16 +11,10 @@
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/lie_group.hpp"
+#include "tick_clock.hpp"
 
 namespace dynfilter {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
 
 // Capacity of the collision candidate list: several points per touching shape.
 constexpr std::size_t kMaxCandidates = 64;
@@ -193,7 +187,7 @@ void DynamicsFilter::desiredAcceleration(const ReferenceFrame& reference) {
 }
 
 const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
-  const Clock::time_point t0 = Clock::now();
+  const detail::TickClock::time_point t0 = detail::TickClock::now();
   ++out_.counters.ticks;
   std::uint32_t status = kStatusOk;
   if (referenceValid(reference)) {
@@ -281,9 +275,9 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
     out_.com_reference_W = balance_->state().reference.c_W;
   }
 
-  const Clock::time_point t_solve = Clock::now();
+  const detail::TickClock::time_point t_solve = detail::TickClock::now();
   status |= contact_qp_ ? solveQp(H_C, u_C, tau_C) : solvePaper(H_C, u_C, tau_C);
-  out_.solve_time_s = secondsSince(t_solve);
+  out_.solve_time_s = detail::secondsSince(t_solve);
 
   // The rows that hold: the QP mode may have released every link (contacts that could not
   // be held), leaving none.
@@ -304,7 +298,7 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
     degraded_ticks_ = 0;
     reseed(ref);
     out_.status = status;
-    out_.tick_time_s = secondsSince(t0);
+    out_.tick_time_s = detail::secondsSince(t0);
     return out_;
   }
   out_.eq12_residual = residual.max_abs;
@@ -360,7 +354,7 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
     reseed(ref);
   }
   out_.status = status;
-  out_.tick_time_s = secondsSince(t0);
+  out_.tick_time_s = detail::secondsSince(t0);
   return out_;
 }
 
