@@ -9,7 +9,7 @@
 #include <stdexcept>
 
 #include "dynfilter/core/lie_group.hpp"
-#include "tick_clock.hpp"
+#include "dynfilter/core/tick_clock.hpp"
 
 namespace dynfilter {
 namespace {

@@ -11,7 +11,7 @@
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/lie_group.hpp"
-#include "tick_clock.hpp"
+#include "dynfilter/core/tick_clock.hpp"
 
 namespace dynfilter {
 namespace {

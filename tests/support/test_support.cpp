@@ -32,6 +32,13 @@ ProgramRun runProgram(const std::string& binary, const std::string& args) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
 }
 
+FilterOptions qpDefaults(double dt_s) {
+  FilterOptions options;
+  options.mode = FilterMode::kQp;
+  options.dt_s = dt_s;
+  return options;
+}
+
 std::vector<std::string> allBackends() { return {"dart", "ode"}; }
 
 std::unique_ptr<IDynamicsModel> makeModel(const std::string& backend,

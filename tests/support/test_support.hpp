@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "dynfilter/core/dynamics_model.hpp"
+#include "dynfilter/core/filter_options.hpp"
 #include "dynfilter/core/model_options.hpp"
 #include "dynfilter/urdf/robot_description.hpp"
 
@@ -31,6 +32,9 @@ struct ProgramRun {
 /// Runs `binary args` through the shell and captures its output (through a file per
 /// process: ctest runs the tests of one executable in parallel processes).
 ProgramRun runProgram(const std::string& binary, const std::string& args);
+
+/// The shipped defaults (tools/config/default.yaml) in the QP mode at tick @p dt_s.
+FilterOptions qpDefaults(double dt_s);
 
 /// Backends the parameterised suites run on.
 std::vector<std::string> allBackends();

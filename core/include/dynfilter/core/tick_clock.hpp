@@ -1,5 +1,7 @@
 #pragma once
-// Internal: the clock the filter times its ticks and solves with.
+/// @file
+/// The clock the filter times its ticks and QP solves with (FilterOutput::tick_time_s,
+/// solve_time_s, qp_solver_time_s). Internal to core.
 #include <chrono>
 
 namespace dynfilter::detail {
