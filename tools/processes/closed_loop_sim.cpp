@@ -84,7 +84,7 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
     if (out.status & kStatusReseeded)
       ++r.reseed_ticks_by_reason[static_cast<std::size_t>(std::clamp(static_cast<int>(out.reseed_reason), 0, 6))];
     tau = rt.command();
-    v_before = robot->v();
+    if (log != nullptr) v_before = robot->v();
     if (!robot_stalled)
       for (int s = 0; s < engine.substeps; ++s) robot->simulateStep(tau, dt / engine.substeps);
     ++r.ticks;
