@@ -28,7 +28,7 @@ if [ ! -f "$build/build.ninja" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_CXX_COMPILER=clang++ \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" \
     -DDYNFILTER_BUILD_FUZZERS=ON -DDYNFILTER_BUILD_TESTS=OFF -DDYNFILTER_BUILD_BENCHMARKS=OFF \
-    -DDYNFILTER_LCM_VENV="$repo/build/venv" >/dev/null
+    -DDYNFILTER_WERROR=ON -DDYNFILTER_LCM_VENV="$repo/build/venv" >/dev/null
 fi
 cmake --build "$build" --target dynfilter_fuzzers
 
