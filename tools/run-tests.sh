@@ -20,7 +20,7 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
   # five-line program subscribing on memq:// or udpm:// SEGVs with vptr and runs clean with
   # ASan alone or with every other UBSan check (fuzz/README.md). No -fsanitize=null and
   # alignment either: in gcc they instrument every Eigen member access and make this build
-  # 1.6x slower to compile (io's largest batch: 104 s of CPU against 66 s); ASan still stops
+  # 1.6x slower to build (BENCHMARKS.md: 624 s against 393 s on 2 cores); ASan still stops
   # on any dereference of a null pointer (SEGV), x86 reads misaligned data correctly, and
   # the clang fuzz build keeps both checks. EIGEN_MALLOC_ALREADY_ALIGNED=1: under ASan,
   # Eigen would otherwise switch to its
@@ -57,7 +57,8 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
   # RealtimeClosedLoop.* (10 whole closed-loop runs, 125 s here) run in Release only: the
   # real-time filter and the measured-state path they drive run here under Realtime.* and
   # Modes/ClosedLoopOn*. ClosedLoopOnDart.WithDartsDefaultContactsTheFeetRock (64 s here)
-  # studies DART's contact settings, not our code; the Release run keeps it.
+  # shows why the simulator changes DART's contact settings; the paths it drives run here
+  # in Modes/ClosedLoopOnDart.*, and the Release run keeps it.
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E "$(printf '%s|' \
     '_NOT_BUILT$' '^LcmProcesses\.' '^soak' '^paper_results' '^plot_lcm_log$' '^exported_package' \
     '^lcm_python_types$' '^lcm_spy_' '^human_figure_is_regenerated' '^core_include_guard' \
