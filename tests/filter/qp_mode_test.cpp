@@ -37,13 +37,6 @@ std::unique_ptr<IDynamicsModel> humanFigure() {
   return test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
 }
 
-FilterOptions qpOptions(double dt = 1e-3) {
-  FilterOptions options;
-  options.dt_s = dt;
-  options.mode = FilterMode::kQp;
-  return options;
-}
-
 // A posture with knees slightly bent (away from the knee's stop at 0), its base at the
 // height where the soles touch the ground.
 ReferenceFrame standingReference(IDynamicsModel& model) {
@@ -118,19 +111,19 @@ struct PhysicsCheck {
 TEST(QpModeOptions, QpModeWithoutASolverFactoryThrows) {
   auto model = humanFigure();
   try {
-    DynamicsFilter filter(*model, qpOptions());
+    DynamicsFilter filter(*model, test::qpDefaults(1e-3));
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("QP solver"), std::string::npos) << e.what();
   }
   // The same options with a factory construct, and paper mode needs none.
-  EXPECT_NO_THROW(DynamicsFilter(*model, qpOptions(), qp_engines::factory(QpSolverSettings{}.engine)));
+  EXPECT_NO_THROW(DynamicsFilter(*model, test::qpDefaults(1e-3), qp_engines::factory(QpSolverSettings{}.engine)));
   EXPECT_NO_THROW(DynamicsFilter(*model, FilterOptions{}));
 }
 
 TEST(QpModeOptions, TaskConstraintRowsAreRejectedInQpMode) {
   auto model = humanFigure();
-  FilterOptions options = qpOptions();
+  FilterOptions options = test::qpDefaults(1e-3);
   options.task.as_constraint_rows = true;
   try {
     DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
@@ -147,7 +140,7 @@ TEST(QpModeOptions, FactoryThatReturnsNoSolverIsRejected) {
   const QpSolverFactory null_factory = [](int, int, int, const QpSolverSettings&) {
     return std::unique_ptr<IQpSolver>();
   };
-  EXPECT_THROW(DynamicsFilter(*model, qpOptions(), null_factory), std::invalid_argument);
+  EXPECT_THROW(DynamicsFilter(*model, test::qpDefaults(1e-3), null_factory), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -159,7 +152,7 @@ TEST(QpModeStanding, StaticStanceCarriesTheWeightWithTheCopOnTheSoles) {
   const ReferenceFrame ref = standingReference(*model);
   const double weight = info.total_mass * kStandardGravity;
   const double mu = model->environment().ground.friction;
-  DynamicsFilter filter(*model, qpOptions(), qp_engines::factory(QpSolverSettings{}.engine));
+  DynamicsFilter filter(*model, test::qpDefaults(1e-3), qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(ref);
   PhysicsCheck check;
   const int ticks = 1500;
@@ -194,7 +187,7 @@ TEST(QpModeStanding, StaticStanceCarriesTheWeightWithTheCopOnTheSoles) {
   RecordProperty("max_base_residual_n", sci(check.max_base_residual_n));
   EXPECT_EQ(status_union & (kStatusQpFallback | kStatusQpRelaxed | kStatusNonFinite), 0u)
       << "status union " << status_union;
-  EXPECT_GE(check.min_normal_n, qpOptions().qp.min_normal_force_n - 1e-6);
+  EXPECT_GE(check.min_normal_n, test::qpDefaults(1e-3).qp.min_normal_force_n - 1e-6);
   EXPECT_LE(check.max_friction_excess, 1e-6);
   EXPECT_GT(check.cop_checked, ticks);  // two soles on (almost) every tick
   EXPECT_LE(check.max_cop_excess_m, 1e-6);
@@ -218,7 +211,7 @@ TEST(QpModeStanding, AnIterationCapIsVisibleAndEq12StillHolds) {
   const ModelInfo& info = model->info();
   const double weight = info.total_mass * kStandardGravity;
   const auto frames = test::simulateStandingSway(*model, 1.0, 1e-3);
-  FilterOptions options = qpOptions();
+  FilterOptions options = test::qpDefaults(1e-3);
   options.qp.solver.max_iterations = 2;
   DynamicsFilter filter(*model, options, proxqp::factory());
   filter.reset(frames.front());
@@ -246,7 +239,7 @@ TEST(QpModeStanding, SwayingSquatKeepsContactsPhysical) {
   const ModelInfo& info = model->info();
   const auto frames = test::simulateStandingSway(*model, 1.0, 1e-3);
   const double weight = info.total_mass * kStandardGravity;
-  DynamicsFilter filter(*model, qpOptions(), qp_engines::factory(QpSolverSettings{}.engine));
+  DynamicsFilter filter(*model, test::qpDefaults(1e-3), qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(frames.front());
   PhysicsCheck check;
   std::uint32_t status_union = 0;
@@ -276,7 +269,7 @@ TEST(QpModeStanding, ATwistingReferenceKeepsEachSolesYawMomentWithinFriction) {
   const ModelInfo& info = model->info();
   const ReferenceFrame stand = standingReference(*model);
   const double dt = 1e-3, amplitude = 0.8, omega = 2.0 * 3.14159265358979323846 * 3.0;
-  DynamicsFilter filter(*model, qpOptions(dt), qp_engines::factory(QpSolverSettings{}.engine));
+  DynamicsFilter filter(*model, test::qpDefaults(dt), qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(stand);
   PhysicsCheck check;
   std::uint32_t status_union = 0;
@@ -327,7 +320,7 @@ TEST(QpModePivot, ASpinningBoxSlowsAtFrictionsTwistThenHolds) {
   v_spin[5] = spin;
   for (const bool yaw_slip : {true, false}) {
     SCOPED_TRACE(yaw_slip ? "pivots" : "no pivots");
-    FilterOptions options = qpOptions(dt);
+    FilterOptions options = test::qpDefaults(dt);
     options.qp.yaw_slip = yaw_slip;
     options.balance.enabled = false;
     DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
@@ -441,7 +434,7 @@ TEST(QpModeClip, KickInQpModeKeepsEveryContactPhysicalWherePaperModePulls) {
   const int substeps = 4;  // 480 Hz on the 120 Hz clip, as dynfilter-offline does
   const double weight = info.total_mass * kStandardGravity;
 
-  FilterOptions qp = qpOptions(period / substeps);
+  FilterOptions qp = test::qpDefaults(period / substeps);
   const ClipRun q = filterClip(*model, frames, substeps, qp);
   FilterOptions paper = qp;
   paper.mode = FilterMode::kPaper;
@@ -511,7 +504,7 @@ void expectVisibleFallbackOnEveryTick(IDynamicsModel& model, const std::vector<R
                                       std::uint32_t* status_union_out) {
   const ModelInfo& info = model.info();
   const double weight = info.total_mass * kStandardGravity;
-  DynamicsFilter filter(model, qpOptions(), factory);
+  DynamicsFilter filter(model, test::qpDefaults(1e-3), factory);
   filter.reset(frames.front());
   std::uint32_t status_union = 0;
   double max_base_residual = 0.0, max_eq12_residual = 0.0;
@@ -694,7 +687,7 @@ RampRun runRamp(double transition_s) {
   const ModelInfo& info = model->info();
   const double dt = 1e-3;
   const auto frames = liftLeftFootReference(*model, dt, 0.05, 0.2);
-  FilterOptions options = qpOptions(dt);
+  FilterOptions options = test::qpDefaults(dt);
   options.qp.release_transition_s = transition_s;
   options.feedback.joint_kp = 4.0;  // weak: see above
   options.feedback.joint_kd = 4.0;
@@ -805,7 +798,7 @@ TEST(QpModeReleaseRamp, NoSoleUnloadsFasterThanTheRateBoundWithDefaultGains) {
   const ModelInfo& info = model->info();
   const double dt = 1e-3;
   const auto frames = liftLeftFootReference(*model, dt, 0.05, 0.2);
-  FilterOptions options = qpOptions(dt);
+  FilterOptions options = test::qpDefaults(dt);
   DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
   filter.reset(frames.front());
   const double weight = info.total_mass * 9.81, T = options.qp.release_transition_s;
