@@ -220,6 +220,10 @@ int main(int argc, char** argv) {
   int cpu = -1;
   app.add_option("--cpu", cpu, "run the whole process on this CPU only (e.g. one of its own: "
                  "BENCHMARKS.md, real-time loop)");
+  int cpu_wake_latency_us = 0;
+  app.add_option("--cpu-wake-latency-us", cpu_wake_latency_us,
+                 "while running, keep CPUs out of idle states slower than this to leave "
+                 "(/dev/cpu_dma_latency, needs root; negative: the machine's setting)");
   app.add_option("--lcm-url", url, "LCM URL (default: $LCM_DEFAULT_URL)");
   app.add_option("--reference-channel", reference_channel);
   app.add_option("--state-channel", state_channel);
@@ -230,6 +234,7 @@ int main(int argc, char** argv) {
 
   try {
     if (cpu >= 0) processes::pinProcessToCpu(cpu);  // before any thread (LCM's too) starts
+    const processes::CpuWakeLatencyHold wake_latency(cpu_wake_latency_us);
     io::FilterConfig config = config_path.empty() ? io::FilterConfig{} : io::loadFilterConfig(config_path);
     config.filter.dt_s = 1.0 / rate_hz;
     if (!mode.empty()) parseFilterMode(mode, config.filter.mode);
@@ -263,8 +268,8 @@ int main(int argc, char** argv) {
       processes::tryRealtimeScheduling(51);
       while (!processes::g_stop) lcm.handleTimeout(20);
     });
-    std::fprintf(stderr, "dynfilter: %s (%s, %d joints) at %.0f Hz; %s\n", info.name.c_str(),
-                 backend.c_str(), info.nj, rate_hz, processes::tryRealtimeScheduling());
+    std::fprintf(stderr, "dynfilter: %s (%s, %d joints) at %.0f Hz; %s; %s\n", info.name.c_str(),
+                 backend.c_str(), info.nj, rate_hz, processes::tryRealtimeScheduling(), wake_latency.note());
 
     torque_command_t command;
     contact_state_t contacts;

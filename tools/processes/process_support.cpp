@@ -1,15 +1,19 @@
 #include "process_support.hpp"
 
-#include <csignal>
-#include <string>
-#include <stdexcept>
-#include <cstring>
 #include <cerrno>
 #include <cmath>
+#include <csignal>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+#include <string>
 
+#include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
+#include <unistd.h>
 
 namespace dynfilter::processes {
 
@@ -17,6 +21,8 @@ std::atomic<bool> g_stop{false};
 
 namespace {
 void onSignal(int) { g_stop = true; }
+
+constexpr const char* kCpuLatencyFile = "/dev/cpu_dma_latency";
 
 timespec toTimespec(double s) {
   timespec t;
@@ -60,6 +66,38 @@ long Ticker::wait() {
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next_, nullptr) != 0 && !g_stop) {
   }
   return missed;
+}
+
+CpuWakeLatencyHold::CpuWakeLatencyHold(int max_us) {
+  if (max_us < 0) {
+    std::snprintf(note_, sizeof note_, "CPU wake latency left to the machine");
+    return;
+  }
+  fd_ = ::open(kCpuLatencyFile, O_WRONLY | O_CLOEXEC);
+  // The kernel takes the request as a binary 32-bit value and holds it while the file is open.
+  const std::int32_t value = max_us;
+  if (fd_ >= 0 && ::write(fd_, &value, sizeof value) != static_cast<ssize_t>(sizeof value)) {
+    ::close(fd_);
+    fd_ = -1;
+  }
+  if (fd_ >= 0)
+    std::snprintf(note_, sizeof note_, "CPU wake latency <= %d us", max_us);
+  else
+    std::snprintf(note_, sizeof note_, "CPU wake latency not held (%s: %s)", kCpuLatencyFile,
+                  std::strerror(errno));
+}
+
+CpuWakeLatencyHold::~CpuWakeLatencyHold() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+long currentCpuWakeLatencyUs() {
+  const int fd = ::open(kCpuLatencyFile, O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return -1;
+  std::int32_t value = -1;
+  const bool ok = ::read(fd, &value, sizeof value) == static_cast<ssize_t>(sizeof value);
+  ::close(fd);
+  return ok ? value : -1;
 }
 
 void pinProcessToCpu(int cpu) {

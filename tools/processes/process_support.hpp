@@ -32,6 +32,32 @@ class Ticker {
 /// locked memory when permitted; returns a note.
 const char* tryRealtimeScheduling(int priority = 50);
 
+/// Keeps every CPU out of idle states that take longer than a bound to leave, through the
+/// kernel's PM QoS request file /dev/cpu_dma_latency, for the holder's lifetime (as
+/// real-time test tools such as cyclictest do). A halted CPU wakes slowly — on a virtual
+/// machine a halted vCPU costs a VM exit — and delays both the delivery of a message to a
+/// thread that waits for it and the tick that follows (BENCHMARKS.md, real-time loop).
+class CpuWakeLatencyHold {
+ public:
+  /// @p max_us: the longest wake-up allowed (µs; 0: CPUs only poll when idle); negative:
+  /// no request, the machine's setting stays. Best effort: without permission (the file
+  /// is root's) nothing is held, and note() says so.
+  explicit CpuWakeLatencyHold(int max_us);
+  ~CpuWakeLatencyHold();
+  CpuWakeLatencyHold(const CpuWakeLatencyHold&) = delete;
+  CpuWakeLatencyHold& operator=(const CpuWakeLatencyHold&) = delete;
+  bool held() const { return fd_ >= 0; }
+  const char* note() const { return note_; }
+
+ private:
+  int fd_ = -1;
+  char note_[96] = {};
+};
+
+/// The machine's current bound on CPU wake-up latency (µs), read from /dev/cpu_dma_latency;
+/// -1 when it cannot be read.
+long currentCpuWakeLatencyUs();
+
 /// Restricts the whole process (the calling thread and every thread started after) to CPU
 /// @p cpu. Throws std::runtime_error naming the CPU when that is not possible.
 void pinProcessToCpu(int cpu);

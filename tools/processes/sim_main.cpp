@@ -105,6 +105,10 @@ int main(int argc, char** argv) {
   int cpu = -1;
   app.add_option("--cpu", cpu, "run the whole process on this CPU only (e.g. one of its own: "
                  "BENCHMARKS.md, real-time loop)");
+  int cpu_wake_latency_us = 0;
+  app.add_option("--cpu-wake-latency-us", cpu_wake_latency_us,
+                 "while running, keep CPUs out of idle states slower than this to leave "
+                 "(/dev/cpu_dma_latency, needs root; negative: the machine's setting)");
   app.add_option("--lcm-url", url, "LCM URL (default: $LCM_DEFAULT_URL)");
   app.add_option("--command-channel", command_channel);
   app.add_option("--state-channel", state_channel);
@@ -112,6 +116,7 @@ int main(int argc, char** argv) {
 
   try {
     if (cpu >= 0) processes::pinProcessToCpu(cpu);  // before any thread (LCM's too) starts
+    const processes::CpuWakeLatencyHold wake_latency(cpu_wake_latency_us);
     ModelOptions model_options;
     if (harness) {
       model_options.floating_base = false;
@@ -143,9 +148,9 @@ int main(int argc, char** argv) {
       processes::tryRealtimeScheduling(51);
       while (!processes::g_stop) lcm.handleTimeout(20);
     });
-    std::fprintf(stderr, "dynfilter-sim: %s on %s at %.0f Hz, %d engine step(s) a tick; %s\n",
+    std::fprintf(stderr, "dynfilter-sim: %s on %s at %.0f Hz, %d engine step(s) a tick; %s; %s\n",
                  info.name.c_str(), backend.c_str(), rate_hz, substeps,
-                 processes::tryRealtimeScheduling());
+                 processes::tryRealtimeScheduling(), wake_latency.note());
 
     // The robot's joint servos: τ = τ_ff + K_p (q_f − q) + K_d (q̇_f − q̇). K_p asks for the
     // joint's full effort at --servo-error-rad; K_d damps the joint's own inertia (diagonal
