@@ -217,13 +217,8 @@ int main(int argc, char** argv) {
   bool fixed_base = false;
   app.add_flag("--fixed-base", fixed_base,
                "plan the robot with its root welded and no ground (a robot on a test stand)");
-  int cpu = -1;
-  app.add_option("--cpu", cpu, "run the whole process on this CPU only (e.g. one of its own: "
-                 "BENCHMARKS.md, real-time loop)");
-  int cpu_wake_latency_us = 0;
-  app.add_option("--cpu-wake-latency-us", cpu_wake_latency_us,
-                 "while running, keep CPUs out of idle states slower than this to leave "
-                 "(/dev/cpu_dma_latency, needs root; negative: the machine's setting)");
+  processes::RealtimeProcessOptions process_options;
+  processes::addRealtimeProcessOptions(app, process_options);
   app.add_option("--lcm-url", url, "LCM URL (default: $LCM_DEFAULT_URL)");
   app.add_option("--reference-channel", reference_channel);
   app.add_option("--state-channel", state_channel);
@@ -233,8 +228,9 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
-    if (cpu >= 0) processes::pinProcessToCpu(cpu);  // before any thread (LCM's too) starts
-    const processes::CpuWakeLatencyHold wake_latency(cpu_wake_latency_us);
+    // Before any thread (LCM's too) starts.
+    if (process_options.cpu >= 0) processes::pinProcessToCpu(process_options.cpu);
+    const processes::CpuWakeLatencyHold wake_latency(process_options.cpu_wake_latency_us);
     io::FilterConfig config = config_path.empty() ? io::FilterConfig{} : io::loadFilterConfig(config_path);
     config.filter.dt_s = 1.0 / rate_hz;
     if (!mode.empty()) parseFilterMode(mode, config.filter.mode);

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include <CLI/CLI.hpp>
 #include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
@@ -98,6 +99,14 @@ long currentCpuWakeLatencyUs() {
   const bool ok = ::read(fd, &value, sizeof value) == static_cast<ssize_t>(sizeof value);
   ::close(fd);
   return ok ? value : -1;
+}
+
+void addRealtimeProcessOptions(CLI::App& app, RealtimeProcessOptions& options) {
+  app.add_option("--cpu", options.cpu, "run the whole process on this CPU only (e.g. one of its own: "
+                 "BENCHMARKS.md, real-time loop)");
+  app.add_option("--cpu-wake-latency-us", options.cpu_wake_latency_us,
+                 "while running, keep CPUs out of idle states slower than this to leave "
+                 "(/dev/cpu_dma_latency, needs root; negative: the machine's setting)");
 }
 
 void pinProcessToCpu(int cpu) {

@@ -5,6 +5,10 @@
 #include <cstdint>
 #include <ctime>
 
+namespace CLI {
+class App;
+}
+
 namespace dynfilter::processes {
 
 /// Set by SIGINT / SIGTERM once installStopHandlers() ran.
@@ -57,6 +61,14 @@ class CpuWakeLatencyHold {
 /// The machine's current bound on CPU wake-up latency (µs), read from /dev/cpu_dma_latency;
 /// -1 when it cannot be read.
 long currentCpuWakeLatencyUs();
+
+/// What every real-time process (dynfilter, dynfilter-sim) takes on its command line.
+struct RealtimeProcessOptions {
+  int cpu = -1;                 ///< --cpu: run the whole process on this CPU (-1: any)
+  int cpu_wake_latency_us = 0;  ///< --cpu-wake-latency-us: CpuWakeLatencyHold's bound (µs)
+};
+/// Adds --cpu and --cpu-wake-latency-us to @p app, parsed into @p options.
+void addRealtimeProcessOptions(CLI::App& app, RealtimeProcessOptions& options);
 
 /// Restricts the whole process (the calling thread and every thread started after) to CPU
 /// @p cpu. Throws std::runtime_error naming the CPU when that is not possible.

@@ -102,21 +102,17 @@ int main(int argc, char** argv) {
   app.add_option("--substeps", substeps,
                  "engine steps per tick (0: the engine's own choice, robot_engine.hpp: 1)")
       ->check(CLI::Range(0, 100));
-  int cpu = -1;
-  app.add_option("--cpu", cpu, "run the whole process on this CPU only (e.g. one of its own: "
-                 "BENCHMARKS.md, real-time loop)");
-  int cpu_wake_latency_us = 0;
-  app.add_option("--cpu-wake-latency-us", cpu_wake_latency_us,
-                 "while running, keep CPUs out of idle states slower than this to leave "
-                 "(/dev/cpu_dma_latency, needs root; negative: the machine's setting)");
+  processes::RealtimeProcessOptions process_options;
+  processes::addRealtimeProcessOptions(app, process_options);
   app.add_option("--lcm-url", url, "LCM URL (default: $LCM_DEFAULT_URL)");
   app.add_option("--command-channel", command_channel);
   app.add_option("--state-channel", state_channel);
   CLI11_PARSE(app, argc, argv);
 
   try {
-    if (cpu >= 0) processes::pinProcessToCpu(cpu);  // before any thread (LCM's too) starts
-    const processes::CpuWakeLatencyHold wake_latency(cpu_wake_latency_us);
+    // Before any thread (LCM's too) starts.
+    if (process_options.cpu >= 0) processes::pinProcessToCpu(process_options.cpu);
+    const processes::CpuWakeLatencyHold wake_latency(process_options.cpu_wake_latency_us);
     ModelOptions model_options;
     if (harness) {
       model_options.floating_base = false;
