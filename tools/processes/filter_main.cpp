@@ -229,8 +229,7 @@ int main(int argc, char** argv) {
 
   try {
     // Before any thread (LCM's too) starts.
-    if (process_options.cpu >= 0) processes::pinProcessToCpu(process_options.cpu);
-    const processes::CpuWakeLatencyHold wake_latency(process_options.cpu_wake_latency_us);
+    const processes::CpuWakeLatencyHold wake_latency = processes::applyRealtimeProcessOptions(process_options);
     io::FilterConfig config = config_path.empty() ? io::FilterConfig{} : io::loadFilterConfig(config_path);
     config.filter.dt_s = 1.0 / rate_hz;
     if (!mode.empty()) parseFilterMode(mode, config.filter.mode);

@@ -109,6 +109,11 @@ void addRealtimeProcessOptions(CLI::App& app, RealtimeProcessOptions& options) {
                  "(/dev/cpu_dma_latency, needs root; negative: the machine's setting)");
 }
 
+CpuWakeLatencyHold applyRealtimeProcessOptions(const RealtimeProcessOptions& options) {
+  if (options.cpu >= 0) pinProcessToCpu(options.cpu);
+  return CpuWakeLatencyHold(options.cpu_wake_latency_us);
+}
+
 void pinProcessToCpu(int cpu) {
   cpu_set_t set;
   CPU_ZERO(&set);

@@ -69,6 +69,10 @@ struct RealtimeProcessOptions {
 };
 /// Adds --cpu and --cpu-wake-latency-us to @p app, parsed into @p options.
 void addRealtimeProcessOptions(CLI::App& app, RealtimeProcessOptions& options);
+/// Applies @p options: pins the process to its CPU (call it before any thread starts,
+/// LCM's too) and returns the wake-latency hold, to be kept for the process's lifetime.
+/// Throws as pinProcessToCpu does.
+CpuWakeLatencyHold applyRealtimeProcessOptions(const RealtimeProcessOptions& options);
 
 /// Restricts the whole process (the calling thread and every thread started after) to CPU
 /// @p cpu. Throws std::runtime_error naming the CPU when that is not possible.

@@ -111,8 +111,7 @@ int main(int argc, char** argv) {
 
   try {
     // Before any thread (LCM's too) starts.
-    if (process_options.cpu >= 0) processes::pinProcessToCpu(process_options.cpu);
-    const processes::CpuWakeLatencyHold wake_latency(process_options.cpu_wake_latency_us);
+    const processes::CpuWakeLatencyHold wake_latency = processes::applyRealtimeProcessOptions(process_options);
     ModelOptions model_options;
     if (harness) {
       model_options.floating_base = false;
