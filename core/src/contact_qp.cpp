@@ -279,7 +279,9 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     slot += link.num_axes;
   }
 
-  // A different contact set changes what the unknowns mean: start that solve cold.
+  // A different contact set changes what some rows mean, not those of the joints nor of the
+  // links held on: start from the last answer's working set, less the rows whose active
+  // side is now unbounded (same answers as cold; BENCHMARKS.md), not cold.
   std::uint64_t signature = 1469598103934665603ull ^ static_cast<std::uint64_t>(nc);
   for (int i = 0; i < num_links; ++i) {
     const VirtualLink& link = links[i];
@@ -288,7 +290,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     for (const int value : {link.body, link.object, link.num_axes, link.created_this_tick ? 1 : 0, pivot})
       signature = (signature ^ static_cast<std::uint64_t>(value + 2)) * 1099511628211ull;
   }
-  if (signature != sc.signature) sc.solver->resetWarmStart();
+  if (signature != sc.signature) sc.solver->restartFromLastSolution();
   sc.signature = signature;
   report.info = timedSolve(sc, report, /*bounds_only=*/false);
   // The check is the criterion: an iterate stopped by the iteration limit that satisfies

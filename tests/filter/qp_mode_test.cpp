@@ -464,6 +464,92 @@ TEST(QpModeClip, KickInQpModeKeepsEveryContactPhysicalWherePaperModePulls) {
   EXPECT_EQ(q.counters.qp_fallbacks, 0u);
 }
 
+// Forwards to an engine; with @p cold every solve starts cold (the answers warm starts
+// must reproduce), else counts the cold starts and restarts the filter asks for.
+class CountingSolver final : public IQpSolver {
+ public:
+  CountingSolver(std::unique_ptr<IQpSolver> inner, bool cold) : inner_(std::move(inner)), cold_(cold) {}
+  QpSolveInfo solve(const DenseQp& problem, Eigen::Ref<Eigen::VectorXd> x) override {
+    if (cold_) inner_->resetWarmStart();
+    return inner_->solve(problem, x);
+  }
+  QpSolveInfo resolveWithNewBounds(const DenseQp& problem, Eigen::Ref<Eigen::VectorXd> x) override {
+    if (cold_) return solve(problem, x);
+    return inner_->resolveWithNewBounds(problem, x);
+  }
+  void resetWarmStart() override {
+    ++resets;
+    inner_->resetWarmStart();
+  }
+  void restartFromLastSolution() override {
+    ++restarts;
+    inner_->restartFromLastSolution();
+  }
+  const char* name() const override { return "counting"; }
+  int resets = 0, restarts = 0;
+
+ private:
+  std::unique_ptr<IQpSolver> inner_;
+  bool cold_;
+};
+
+TEST(QpModeClip, AContactChangeRestartsFromTheLastWorkingSetWithTheColdAnswer) {
+  // A tick whose contact set differs from the last one's (a link made, released, or
+  // pivoting) starts from the last answer's working set, not cold, and gets the answer of
+  // cold solves (a strictly convex QP). Working-set changes saved: BENCHMARKS.md.
+  auto model = humanFigure();
+  const auto frames = retargetedClipStart(*model, "01_01", "01_01_forward_jumps.bvh", 4.0);
+  const int substeps = 4;
+  const FilterOptions options = test::qpDefaults((frames[1].time_s - frames[0].time_s) / substeps);
+  const QpSolverFactory daqp = qp_engines::factory("daqp");
+  std::vector<CountingSolver*> engines;  // owned by the filter
+  DynamicsFilter warm(*model, options, [&](int n, int n_eq, int n_in, const QpSolverSettings& settings) {
+    auto engine = std::make_unique<CountingSolver>(daqp(n, n_eq, n_in, settings), false);
+    engines.push_back(engine.get());
+    return engine;
+  });
+  DynamicsFilter cold(*model, options, [&](int n, int n_eq, int n_in, const QpSolverSettings& settings) {
+    return std::make_unique<CountingSolver>(daqp(n, n_eq, n_in, settings), true);
+  });
+  warm.reset(frames.front());
+  cold.reset(frames.front());
+  ReferenceFrame ref(model->nq(), model->nv());
+  const double dt = options.dt_s;
+  int contact_changes = 0;
+  long warm_iterations = 0, cold_iterations = 0;
+  double max_q_difference = 0.0;
+  std::vector<int> last_bodies;
+  for (std::size_t segment = 0; segment + 1 < frames.size(); ++segment) {
+    for (int s = 0; s < substeps; ++s) {
+      interpolateReference(true, frames[segment], frames[segment + 1], frames[segment].time_s + s * dt, ref);
+      const FilterOutput& w = warm.step(ref);
+      const FilterOutput& c = cold.step(ref);
+      ASSERT_EQ(w.status, c.status) << "t " << w.time_s;
+      max_q_difference = std::max(max_q_difference, (w.q - c.q).cwiseAbs().maxCoeff());
+      warm_iterations += w.qp_iterations;
+      cold_iterations += c.qp_iterations;
+      std::vector<int> bodies;
+      for (int i = 0; i < w.num_contacts; ++i) bodies.push_back(w.contacts[static_cast<std::size_t>(i)].body);
+      contact_changes += bodies != last_bodies ? 1 : 0;
+      last_bodies = bodies;
+    }
+  }
+  int resets = 0, restarts = 0;
+  for (const CountingSolver* engine : engines) {
+    resets += engine->resets;
+    restarts += engine->restarts;
+  }
+  RecordProperty("contact_changes", contact_changes);
+  RecordProperty("restarts", restarts);
+  RecordProperty("warm_working_set_changes", static_cast<int>(warm_iterations));
+  RecordProperty("cold_working_set_changes", static_cast<int>(cold_iterations));
+  ASSERT_GE(contact_changes, 10) << "the jumps make and release links";
+  EXPECT_EQ(resets, 0) << "no tick starts cold";
+  EXPECT_GE(restarts, contact_changes);
+  EXPECT_LE(max_q_difference, 1e-8);
+  EXPECT_LT(warm_iterations, cold_iterations / 2);
+}
+
 // ---------------------------------------------------------------------------------------
 // Failures of the QP never pass silently
 
