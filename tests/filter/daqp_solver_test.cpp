@@ -290,6 +290,41 @@ TEST(DaqpAdapter, RestartsFromTheLastSolutionGiveTheColdAnswersInFewerChanges) {
   RecordProperty("cold_changes", cold_changes);
 }
 
+TEST(DaqpAdapter, ReSolvesWithNewRowsOrANewObjectiveGiveTheFreshAnswers) {
+  // The adapter keeps DAQP's factor of H when H and g are those of the last solve (a
+  // re-solve whose rows changed: a pivot, a relaxation): the rows' images must still be
+  // formed again, and any change of H, however small, must be factorised.
+  const int n = 16, n_eq = 3, n_in = 20;
+  DriftingQp drifting(n, n_eq, n_in, 5);
+  DenseQp& qp = drifting.qp;
+  auto solver = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
+  int compared = 0;
+  for (int k = 0; k < 30; ++k) {
+    drifting.drift(0.02, 0.05);
+    drifting.boxAndRows(0.6, 1.0);
+    Eigen::VectorXd x(n), x_fresh(n);
+    solver->solve(qp, x);
+    DenseQp rows = qp;  // one equality row and two inequality rows replaced
+    rows.A.row(k % n_eq) = Eigen::VectorXd::NullaryExpr(n, [&] { return drifting.draw(); });
+    for (const int r : {k % n_in, (k + 7) % n_in})
+      rows.C.row(r) = Eigen::VectorXd::NullaryExpr(n, [&] { return drifting.draw(); });
+    DenseQp objective = rows;  // and H moved by 1e-3 in one entry pair
+    objective.H(1, 2) += 1e-3;
+    objective.H(2, 1) += 1e-3;
+    for (const DenseQp* changed : {&rows, &objective}) {
+      solver->restartFromLastSolution();
+      const QpSolveInfo info = solver->solve(*changed, x);
+      auto fresh = daqp::makeSolver(n, n_eq, n_in, QpSolverSettings{});
+      const QpSolveInfo fresh_info = fresh->solve(*changed, x_fresh);
+      ASSERT_EQ(info.status, fresh_info.status) << "step " << k;
+      if (info.status != QpSolveStatus::kSolved) continue;
+      ++compared;
+      EXPECT_LT((x - x_fresh).cwiseAbs().maxCoeff(), 1e-9) << "step " << k;
+    }
+  }
+  EXPECT_GT(compared, 40);
+}
+
 TEST(DaqpAdapter, NonFiniteDataIsReportedNotSolved) {
   auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
   DenseQp qp = projectionProblem();

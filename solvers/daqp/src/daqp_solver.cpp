@@ -82,6 +82,7 @@ class DaqpSolver final : public IQpSolver {
 
   QpSolveInfo solve(const DenseQp& p, Eigen::Ref<Eigen::VectorXd> x) override {
     QpSolveInfo info;
+    const bool was_loaded = loaded_;
     loaded_ = false;
     // Warm: the last answer's active set first (one linear solve, every KKT condition
     // checked); DAQP runs only when it fails.
@@ -90,6 +91,9 @@ class DaqpSolver final : public IQpSolver {
       info.primal_residual = active_set_.residual();
       return info;
     }
+    // DAQP's factor of H and its v = R⁻ᵀ f stay valid while H and g do (a re-solve whose
+    // rows changed, e.g. a relaxation): then only the rows' images are formed again.
+    const bool same_objective = was_loaded && H_.cwiseEqual(p.H).all() && f_.cwiseEqual(p.g).all();
     H_ = p.H;
     f_ = p.g;
     rows_.topRows(n_eq_) = p.A;
@@ -98,6 +102,7 @@ class DaqpSolver final : public IQpSolver {
       info.status = QpSolveStatus::kNotFinite;
       return info;
     }
+    if (same_objective) return run(p, x, DAQP_UPDATE_M | DAQP_UPDATE_d);
     return run(p, x, DAQP_UPDATE_Rinv | DAQP_UPDATE_M | DAQP_UPDATE_v | DAQP_UPDATE_d);
   }
 
