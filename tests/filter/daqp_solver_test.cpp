@@ -325,6 +325,27 @@ TEST(DaqpAdapter, ReSolvesWithNewRowsOrANewObjectiveGiveTheFreshAnswers) {
   EXPECT_GT(compared, 40);
 }
 
+TEST(DaqpAdapter, ALimitedSolveStopsAtItsShareOfTheCapAndTheNextHasItAll) {
+  // Projection of x = 2 onto the box [-1, 1]ⁿ from a cold start: n bounds enter one by one.
+  const int n = 100;
+  DenseQp qp(n, 0, 0);
+  qp.H.setIdentity();
+  qp.g.setConstant(-2.0);
+  qp.x_lower.setConstant(-1.0);
+  qp.x_upper.setConstant(1.0);
+  auto solver = daqp::makeSolver(n, 0, 0, QpSolverSettings{});
+  Eigen::VectorXd x(n);
+  solver->limitNextSolve(0.5);
+  const QpSolveInfo limited = solver->solve(qp, x);
+  EXPECT_EQ(limited.status, QpSolveStatus::kMaxIterations);
+  EXPECT_EQ(limited.iterations, daqp::kMaxWorkingSetChanges / 2);
+  solver->resetWarmStart();
+  const QpSolveInfo whole = solver->solve(qp, x);
+  ASSERT_EQ(whole.status, QpSolveStatus::kSolved);
+  EXPECT_GE(whole.iterations, n);
+  EXPECT_LT((x - Eigen::VectorXd::Ones(n)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
 TEST(DaqpAdapter, NonFiniteDataIsReportedNotSolved) {
   auto solver = daqp::makeSolver(3, 1, 2, QpSolverSettings{});
   DenseQp qp = projectionProblem();

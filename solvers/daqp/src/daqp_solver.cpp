@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 extern "C" {
@@ -86,6 +87,7 @@ class DaqpSolver final : public IQpSolver {
     loaded_ = false;
     // Warm: the last answer's active set first (one linear solve, every KKT condition
     // checked); DAQP runs only when it fails.
+    const int limit = std::exchange(next_limit_, kMaxWorkingSetChanges);
     if (const int steps = active_set_.solve(p, eps_abs_, kActiveSetSteps, x, y_, z_); steps > 0) {
       info.iterations = steps;
       info.primal_residual = active_set_.residual();
@@ -102,8 +104,8 @@ class DaqpSolver final : public IQpSolver {
       info.status = QpSolveStatus::kNotFinite;
       return info;
     }
-    if (same_objective) return run(p, x, DAQP_UPDATE_M | DAQP_UPDATE_d);
-    return run(p, x, DAQP_UPDATE_Rinv | DAQP_UPDATE_M | DAQP_UPDATE_v | DAQP_UPDATE_d);
+    if (same_objective) return run(p, x, DAQP_UPDATE_M | DAQP_UPDATE_d, limit);
+    return run(p, x, DAQP_UPDATE_Rinv | DAQP_UPDATE_M | DAQP_UPDATE_v | DAQP_UPDATE_d, limit);
   }
 
   QpSolveInfo resolveWithNewBounds(const DenseQp& p, Eigen::Ref<Eigen::VectorXd> x) override {
@@ -111,7 +113,7 @@ class DaqpSolver final : public IQpSolver {
     if (!loaded_) return solve(p, x);
     // DAQP holds the factor of H and the rows times its inverse from the last solve: only
     // the bounds' images need forming again (saves two O(n³) steps on a relaxed tick).
-    return run(p, x, DAQP_UPDATE_d);
+    return run(p, x, DAQP_UPDATE_d, std::exchange(next_limit_, kMaxWorkingSetChanges));
   }
 
   void resetWarmStart() override {
@@ -126,11 +128,16 @@ class DaqpSolver final : public IQpSolver {
     cold_ = !restart_;
   }
 
+  void limitNextSolve(double share) override {
+    next_limit_ = std::clamp(static_cast<int>(share * kMaxWorkingSetChanges), 1, kMaxWorkingSetChanges);
+  }
+
   const char* name() const override { return "daqp"; }
 
  private:
-  // Copies the bounds, updates DAQP's problem by @p mask and solves.
-  QpSolveInfo run(const DenseQp& p, Eigen::Ref<Eigen::VectorXd> x, int mask) {
+  // Copies the bounds, updates DAQP's problem by @p mask and solves in at most @p limit
+  // working-set changes.
+  QpSolveInfo run(const DenseQp& p, Eigen::Ref<Eigen::VectorXd> x, int mask, int limit) {
     QpSolveInfo info;
     for (int i = 0; i < n_; ++i) {
       upper_[i] = mapBound(p.x_upper[i]);
@@ -181,6 +188,7 @@ class DaqpSolver final : public IQpSolver {
     DAQPResult result{};
     result.x = x.data();
     result.lam = lambda_.data();
+    settings_.iter_limit = limit;
     daqp_solve(&result, &work_);
     info.iterations = result.iter;
     switch (result.exitflag) {
@@ -250,6 +258,7 @@ class DaqpSolver final : public IQpSolver {
   bool loaded_ = false;  // DAQP's workspace holds H, g and the rows of the last solve()
   bool restart_ = false;  // the next run starts from solved_sense_
   bool solved_sense_valid_ = false;
+  int next_limit_ = kMaxWorkingSetChanges;  // DAQP's iteration cap for the next run
   RowMajorMatrix H_;
   Eigen::VectorXd f_;
   RowMajorMatrix rows_;

@@ -96,6 +96,10 @@ class IQpSolver {
   /// without the rows whose bound on the active side is now unbounded: a re-solve of a
   /// problem that changed a little (a relaxation). Engines without a working set start cold.
   virtual void restartFromLastSolution() { resetWarmStart(); }
+  /// The next solve or re-solve stops after @p share ∈ (0, 1] of this engine's cap on its
+  /// iterations (QpSolveStatus::kMaxIterations): an attempt that a fallback follows when it
+  /// fails. Later solves have the whole cap again. Engines without such a cap ignore it.
+  virtual void limitNextSolve(double share) { (void)share; }
   /// Engine name, e.g. "proxqp".
   virtual const char* name() const = 0;
 };
