@@ -6,7 +6,9 @@
 /// PyPI source distribution (solvers/daqp/CMakeLists.txt). A warm solve first tries the
 /// last answer's active set (one KKT solve, every condition checked; solvers/active_set);
 /// when that fails DAQP runs, hot-started from its last working set and capped at
-/// kMaxWorkingSetChanges, so a solve's work is bounded. Equality rows are always in the
+/// kMaxWorkingSetChanges (or the share IQpSolver::limitNextSolve asked for), so a solve's
+/// work is bounded. A solve whose H and g equal the last solve's keeps DAQP's factor of H
+/// and forms only the rows' images again. Equality rows are always in the
 /// working set: they hold to round-off in DAQP's answers (to eps_abs in the step's).
 /// Memory is allocated at construction and on the first solve (DAQP's setup) only.
 
