@@ -52,7 +52,6 @@ class DaqpSolver final : public IQpSolver {
     // Equality rows are in the working set, so Eq. 12 holds to round-off; the primal
     // tolerance applies to the inequalities (N, m/s²), like ProxQP's eps_abs.
     settings_.primal_tol = settings.eps_abs;
-    settings_.iter_limit = kMaxWorkingSetChanges;
     // The equality rows stay rows: their elimination allocates on every update.
     settings_.eq_reduction = DAQP_EQ_REDUCTION_OFF;
     problem_.n = n;
