@@ -231,7 +231,9 @@ std::vector<std::string> FilteredMotionWriter::contactColumns() {
           "support_x_min", "support_x_max", "support_y_min", "support_y_max", "pivot"};
 }
 
-void FilteredMotionWriter::append(const FilterOutput& out) {
+void FilteredMotionWriter::append(const FilterOutput& out) { append(out, out.status); }
+
+void FilteredMotionWriter::append(const FilterOutput& out, std::uint32_t row_status) {
   if (!impl_) throw std::logic_error("FilteredMotionWriter::append on a moved-from writer");
   Impl& s = *impl_;
   if (s.committed) throw std::logic_error("FilteredMotionWriter::append after commit()");
@@ -257,7 +259,7 @@ void FilteredMotionWriter::append(const FilterOutput& out) {
   r.clear();
   detail::appendDouble(r, out.time_s);
   r += ',';
-  detail::appendInteger(r, static_cast<long long>(out.status));
+  detail::appendInteger(r, static_cast<long long>(row_status));
   appendValues(r, out.q);
   appendValues(r, out.v);
   appendValues(r, out.vdot);

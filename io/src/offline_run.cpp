@@ -56,6 +56,8 @@ OfflineSchedule runOffline(IDynamicsModel& model, FilterOptions filter_options,
   tick.count = s.ticks;
   tick.reference = &ref;
   tick.filter = &filter;
+  std::uint32_t status_since_row = 0;
+  ReseedReason reseed_since_row = ReseedReason::kNone;
   for (long k = 0; k < s.ticks; ++k) {
     const double t = s.uniform ? frames[static_cast<std::size_t>(k / s.substeps)].time_s +
                                      static_cast<double>(k % s.substeps) * dt
@@ -72,9 +74,17 @@ OfflineSchedule runOffline(IDynamicsModel& model, FilterOptions filter_options,
         row = true;
         ++next_frame;
       }
+    status_since_row |= out.status;
+    if (out.status & kStatusReseeded) reseed_since_row = out.reseed_reason;
     tick.index = k;
     tick.time_s = t;
     tick.row = row;
+    tick.row_status = row ? status_since_row : 0;
+    tick.row_reseed_reason = row ? reseed_since_row : ReseedReason::kNone;
+    if (row) {
+      status_since_row = 0;
+      reseed_since_row = ReseedReason::kNone;
+    }
     tick.output = &out;
     if (on_tick) on_tick(tick);
   }

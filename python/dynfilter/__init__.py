@@ -210,10 +210,12 @@ def filter_motion(model: Model, reference_motion: Any,
     is called about every 1 % of the ticks.
 
     Returns a dict of NumPy arrays, one row per reference frame (per tick with
-    ``every_tick``): ``time`` (s), ``status`` (STATUS_BITS), ``q`` (rows, nq), ``v``,
+    ``every_tick``): ``time`` (s), ``status`` (STATUS_BITS; the union over the ticks since
+    the previous row, so a re-seed between rows shows), ``q`` (rows, nq), ``v``,
     ``vdot``, ``tracking_error`` (rows, nv), ``tau`` (rows, nj), ``task_error`` (rows, 6),
     ``eq12_residual``, ``base_residual_n``, ``max_penetration_m``, ``num_contacts``,
-    ``solve_time_s``, ``tick_time_s``, ``reseed_reason``, ``qp_status``, ``qp_iterations``;
+    ``solve_time_s``, ``tick_time_s``, ``reseed_reason`` (the last re-seed's since the
+    previous row), ``qp_status``, ``qp_iterations``;
     ``contacts``: a dict of arrays, one entry per contact per row (``row``, ``time``,
     ``body`` index into ``body_names``, ``object``, ``kind`` (CONTACT_KINDS), ``p_WC``,
     ``n_W``, ``wrench_W`` (k, 6) [force; moment] world, ``normal_force_n``, ``cop_A``,

@@ -68,10 +68,11 @@ class Recorder {
         err_{info.nv, {}}, task_err_{6, {}}, p_{3, {}}, n_{3, {}}, wrench_{6, {}}, cop_{2, {}},
         support_min_{2, {}}, support_max_{2, {}} {}
 
-  void add(const FilterOutput& out) {
+  /// @param status, reseed_reason the row's: io::OfflineTick::row_status and row_reseed_reason
+  void add(const FilterOutput& out, std::uint32_t status, ReseedReason reseed_reason) {
     const auto row = static_cast<std::int64_t>(status_.size());
     time_.add(out.time_s);
-    status_.push_back(out.status);
+    status_.push_back(status);
     q_.add(out.q.data());
     v_.add(out.v.data());
     vdot_.add(out.vdot.data());
@@ -84,7 +85,7 @@ class Recorder {
     num_contacts_.push_back(out.num_contacts);
     solve_time_.add(out.solve_time_s);
     tick_time_.add(out.tick_time_s);
-    reseed_reason_.push_back(static_cast<int>(out.reseed_reason));
+    reseed_reason_.push_back(static_cast<int>(reseed_reason));
     qp_status_.push_back(out.qp_status);
     qp_iterations_.push_back(out.qp_iterations);
     for (int c = 0; c < out.num_contacts; ++c) {
@@ -264,8 +265,8 @@ py::dict filterMotion(const Model& model, const Reference& reference,
         [&](const io::OfflineTick& tick) {
           if (tick.index == 0) report_every = std::max(1L, tick.count / 100);
           if (tick.row) {
-            recorder.add(*tick.output);
-            if (writer) writer->append(*tick.output);
+            recorder.add(*tick.output, tick.row_status, tick.row_reseed_reason);
+            if (writer) writer->append(*tick.output, tick.row_status);
           }
           counters = tick.output->counters;
           if ((tick.index + 1) % report_every == 0 || tick.index + 1 == tick.count) {

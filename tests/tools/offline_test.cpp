@@ -160,3 +160,63 @@ TEST(Offline, AnUnknownModelFileIsAClearError) {
 }
 
 }  // namespace
+
+TEST(Offline, ReSeedsBetweenWrittenRowsShowInTheNextRowAndTheSummary) {
+  // The squat (120 Hz, 4 ticks a frame at 500 Hz) whose base jumps 2 m along x from frame
+  // 200 on: the interpolated reference passes the 0.5 m guard inside a frame interval, so
+  // the figure re-seeds on ticks that write no row.
+  std::ifstream in(kSquat);
+  const std::string jumping = testing::TempDir() + "/jumping_squat.csv";
+  std::ofstream file(jumping);
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (n >= 3 + 200) {
+      std::vector<std::string> f;
+      std::stringstream ss(line);
+      std::string x;
+      while (std::getline(ss, x, ',')) f.push_back(x);
+      f[1] = std::to_string(std::stod(f[1]) + 2.0);
+      line.clear();
+      for (std::size_t i = 0; i < f.size(); ++i) line += (i ? "," : "") + f[i];
+    }
+    file << line << "\n";
+  }
+  file.close();
+  const std::string out = testing::TempDir() + "/jumping_out.csv";
+  const std::string events = testing::TempDir() + "/jumping_events.csv";
+  const dynfilter::test::ProgramRun run =
+      runOffline(jumping + " -o " + out + " --no-progress --events-csv " + events);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+
+  const auto ev = readCsv(events);
+  const int ev_time = column(ev[0], "time"), ev_tick = column(ev[0], "tick"),
+            ev_status = column(ev[0], "status");
+  std::vector<double> reseed_times;
+  bool between_rows = false;
+  for (std::size_t r = 1; r < ev.size(); ++r)
+    if (std::stoul(ev[r][static_cast<std::size_t>(ev_status)]) & 16u) {
+      reseed_times.push_back(std::stod(ev[r][static_cast<std::size_t>(ev_time)]));
+      between_rows |= std::stol(ev[r][static_cast<std::size_t>(ev_tick)]) % 4 != 0;
+    }
+  ASSERT_FALSE(reseed_times.empty()) << run.output;
+  ASSERT_TRUE(between_rows) << "the case needs a re-seed on a tick without a row";
+
+  // Every re-seed marks the first row at or after it, and no other row is marked.
+  const auto rows = readCsv(out);
+  const int time = column(rows[0], "time"), status = column(rows[0], "status");
+  std::vector<bool> expected(rows.size(), false);
+  for (const double t : reseed_times)
+    for (std::size_t r = 1; r < rows.size(); ++r)
+      if (std::stod(rows[r][static_cast<std::size_t>(time)]) >= t - 1e-9) {
+        expected[r] = true;
+        break;
+      }
+  for (std::size_t r = 1; r < rows.size(); ++r)
+    EXPECT_EQ((std::stoul(rows[r][static_cast<std::size_t>(status)]) & 16u) != 0, expected[r])
+        << "row " << r << " at " << rows[r][static_cast<std::size_t>(time)] << " s";
+
+  char summary[64];
+  std::snprintf(summary, sizeof summary, "re-seeds              %zu ticks, the first at %.3f s",
+                reseed_times.size(), reseed_times.front());
+  EXPECT_NE(run.output.find(summary), std::string::npos) << run.output;
+}

@@ -222,7 +222,7 @@ int main(int argc, char** argv) {
                          model->nj() > 0 ? e.tail(model->nj()).cwiseAbs().maxCoeff() : 0.0);
           }
           if (tick.row) {
-            writer.append(out);
+            writer.append(out, tick.row_status);
             ++written;
             if (bodies) {
               // After the tick, so the filter's next setState is unaffected.

@@ -44,6 +44,10 @@ void RunSummary::add(const FilterOutput& out) {
   max_penetration_m_ = std::max(max_penetration_m_, out.max_penetration_m);
   tick_time_sum_s_ += out.tick_time_s;
   status_union_ |= out.status;
+  if (out.status & kStatusReseeded) {
+    if (reseeds_ == 0) first_reseed_s_ = out.time_s;
+    ++reseeds_;
+  }
   bool pulling = false;
   for (int c = 0; c < out.num_contacts; ++c) {
     const double f = out.contacts[static_cast<std::size_t>(c)].normal_force_n;
@@ -72,6 +76,11 @@ void RunSummary::print(std::FILE* s, int frames, double motion_s, double wall_s)
   else
     std::fprintf(s, "contact normal force  no contact\n");
   std::fprintf(s, "max penetration       %.2f mm\n", 1e3 * max_penetration_m_);
+  if (reseeds_ > 0)
+    std::fprintf(s, "re-seeds              %d ticks, the first at %.3f s (the state was reset to the "
+                    "reference: --events-csv lists them)\n", reseeds_, first_reseed_s_);
+  else
+    std::fprintf(s, "re-seeds              0\n");
   std::fprintf(s, "time per tick         %.1f µs (filter only)\n",
                ticks_ ? 1e6 * tick_time_sum_s_ / ticks_ : 0.0);
   std::fprintf(s, "time per frame        %.1f µs (everything, with I/O); %.0f× real time\n",

@@ -38,6 +38,8 @@ class RunSummary {
   double tick_time_sum_s_ = 0.0;
   unsigned status_union_ = 0;
   int ticks_with_pulling_ = 0;
+  int reseeds_ = 0;
+  double first_reseed_s_ = 0.0;
 };
 
 }  // namespace dynfilter::tools

@@ -5,8 +5,10 @@
 /// Two files (UTF-8, LF, comma-separated, one header line, no comments, numbers in the
 /// shortest form that reads back bit-exactly, i.e. std::to_chars; non-finite as nan/inf):
 ///
-/// `<path>`, one row per tick, columns in this order:
-/// - `time` (s), `status` (FilterStatusBits, unsigned integer);
+/// `<path>`, one row per tick written, columns in this order:
+/// - `time` (s), `status` (FilterStatusBits, unsigned integer: with rows at a lower rate
+///   than the ticks, e.g. one per reference frame, the union of the statuses of the ticks
+///   since the previous row, so that no re-seed between rows is hidden);
 /// - q: `base_x, base_y, base_z` (m, world), `base_qw, base_qx, base_qy, base_qz`
 ///   (quaternion of R_WB) — floating base only — then one column per joint named as the
 ///   joint (rad or m);
@@ -33,6 +35,7 @@
 /// The main file is a valid reference motion file (readReferenceMotion with
 /// ReferenceReadOptions::allow_extra_columns) that reads back q, v and v̇ bit-exactly.
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -71,6 +74,9 @@ class FilteredMotionWriter {
   /// @throws std::invalid_argument on wrong sizes or indices (nothing written);
   ///         std::logic_error after commit(); InputError on a write failure.
   void append(const FilterOutput& out);
+  /// The same, with @p row_status written as the status (e.g. io::OfflineTick::row_status,
+  /// the union of the statuses of the ticks since the previous row).
+  void append(const FilterOutput& out, std::uint32_t row_status);
 
   /// Flushes, syncs and renames both files into place. Afterwards the writer is spent.
   /// @throws InputError on failure (the temporaries are then removed);

@@ -54,6 +54,11 @@ struct OfflineTick {
   long count = 0;  ///< ticks in the run
   double time_s = 0.0;  ///< the tick's time (s)
   bool row = false;  ///< an output row: a reference frame's tick, or every tick with every_tick
+  /// With row: the union of the statuses of the ticks since the previous row, this one
+  /// included, so that a re-seed between two rows shows in the next row's status.
+  std::uint32_t row_status = 0;
+  /// With row: the reason of the last re-seed among those ticks (kNone: none re-seeded).
+  ReseedReason row_reseed_reason = ReseedReason::kNone;
   const ReferenceFrame* reference = nullptr;  ///< the interpolated reference of the tick
   const FilterOutput* output = nullptr;       ///< the filter's output of the tick
   const DynamicsFilter* filter = nullptr;     ///< the filter (e.g. its taskBody())
