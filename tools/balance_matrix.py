@@ -90,6 +90,7 @@ def scale_time(src, dst, speed):
 
 
 def run_case(name, args, build, out):
+    pr.MODEL_INFO = build / "tools" / "model_info" / "dynfilter-model-info"
     bvh, mapping, speed, slope, backend, mirrored = CASES[name]
     bvh_path = pr.CMU / bvh
     if mirrored:

@@ -19,6 +19,7 @@ the walking direction), jump (01_01 forward jumps), kick (10_01 soccer kick).
 import argparse
 import csv
 import datetime
+import io
 import json
 import math
 import os
@@ -67,11 +68,9 @@ TITLES = {
     "kick": "Soccer kick (CMU 10_01)",
     "g1_walk": "Walk (CMU 131_01) retargeted to the Unitree G1 (IK mode), flat ground",
 }
-GROUPS = {
-    "legs": ("hip", "knee", "ankle"),
-    "arms": ("shoulder", "elbow", "forearm", "wrist"),
-    "spine": ("waist", "neck"),
-}
+GROUPS = ("legs", "arms", "spine")  # and "other": by structure, `dynfilter-model-info --joint-groups`
+# The tool that groups a model's joints; main() points it into --build-dir.
+MODEL_INFO = ROOT / "build" / "tools" / "model_info" / "dynfilter-model-info"
 PLOT_JOINTS = ["l_hip_pitch", "r_hip_pitch", "l_knee", "r_knee", "l_ankle_pitch", "r_ankle_pitch"]
 
 
@@ -84,11 +83,14 @@ def rel(p):
         return str(p)
 
 
-def group_of(joint):
-    for g, keys in GROUPS.items():
-        if any(k in joint for k in keys):
-            return g
-    return "other"
+def joint_groups(urdf):
+    """joint name -> "spine" | "legs" | "arms" | "other", from the model's kinematic tree
+    (`dynfilter-model-info --joint-groups`; no joint names in this script)."""
+    r = subprocess.run([str(MODEL_INFO), str(urdf), "--joint-groups"], capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"paper_results: {MODEL_INFO} --joint-groups failed on {urdf}: {r.stderr.strip()}")
+    rows = list(csv.reader(io.StringIO(r.stdout)))
+    return {j: g for j, g in rows[1:]}
 
 
 # ----------------------------------------------------------------------------- model
@@ -97,6 +99,7 @@ class Model:
 
     def __init__(self, urdf):
         self.path = str(urdf)
+        self._groups = None
         root = ET.parse(urdf).getroot()
         self.links = [l.get("name") for l in root.findall("link")]
         self.parent = {}
@@ -123,6 +126,12 @@ class Model:
             lim = j.find("limit")
             if lim is not None and lim.get("effort") is not None:
                 self.effort[j.get("name")] = float(lim.get("effort"))
+
+    def group_of(self, joint):
+        """The joint's group by structure (joint_groups), read once per model."""
+        if self._groups is None:
+            self._groups = joint_groups(self.path)
+        return self._groups.get(joint, "other")
 
     def fk(self, base_p, base_q, joint_q):
         """World positions of every link origin (n_links x 3). base_q = (w, x, y, z)."""
@@ -330,14 +339,16 @@ def limit_metrics(t, contacts_csv, model, mu):
 
 def metrics_of(filtered_csv, contacts_csv, model=None, mu=0.8):
     t = read_table(filtered_csv)
+    groups_of = model if model is not None else Model(URDF)
     n = len(t["time"])
     joints = [c[4:] for c in t if c.startswith("err.")]
     m = {"frames": n, "duration_s": float(t["time"][-1] - t["time"][0])}
     E = np.column_stack([t[f"err.{j}"] for j in joints])
     m["joint_rms_rad"] = rms(E)
     for g in GROUPS:
-        cols = [i for i, j in enumerate(joints) if group_of(j) == g]
-        m[f"joint_rms_{g}_rad"] = rms(E[:, cols])
+        cols = [i for i, j in enumerate(joints) if groups_of.group_of(j) == g]
+        if cols:  # else the model has no joint in this group
+            m[f"joint_rms_{g}_rad"] = rms(E[:, cols])
     pos = np.column_stack([t[f"task_err.{c}"] for c in ("x", "y", "z")])
     rot = np.column_stack([t[f"task_err.{c}"] for c in ("rx", "ry", "rz")])
     m["task_pos_rms_m"] = float(math.sqrt(np.mean(np.sum(pos ** 2, axis=1))))
@@ -353,8 +364,10 @@ def metrics_of(filtered_csv, contacts_csv, model=None, mu=0.8):
     m["max_normal_force_n"] = float(cn.max()) if len(cn) else 0.0
     m["min_normal_force_n"] = float(cn.min()) if len(cn) else 0.0
     for g in GROUPS:
-        cols = [j for j in joints if group_of(j) == g and f"{j}.tau" in t]
+        cols = [j for j in joints if groups_of.group_of(j) == g and f"{j}.tau" in t]
         peaks = {j: float(np.max(np.abs(t[f"{j}.tau"]))) for j in cols}
+        if not peaks:  # a model without joints in this group
+            continue
         worst = max(peaks, key=peaks.get)
         m[f"peak_tau_{g}_nm"] = peaks[worst]
         m[f"peak_tau_{g}_joint"] = worst
@@ -744,6 +757,8 @@ def main():
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     build = Path(args.build_dir).resolve()
+    global MODEL_INFO
+    MODEL_INFO = build / "tools" / "model_info" / "dynfilter-model-info"
     offline = str(Path(args.offline or build / "tools" / "offline" / "dynfilter-offline").resolve())
     bvh2ref = str(Path(args.bvh2ref or build / "tools" / "bvh2ref" / "dynfilter-bvh2ref").resolve())
     for b in (offline, bvh2ref):

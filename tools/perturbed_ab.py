@@ -60,6 +60,7 @@ def perturb(src, dst, seed, noise):
 
 def run(job):
     name, seed, b, build, ref, args, out = job
+    pr.MODEL_INFO = build / "tools" / "model_info" / "dynfilter-model-info"
     _, _, _, slope, backend, _ = bm.CASES[name]
     stem = out / f"{name}_s{seed}_b{b}"
     fil, events = Path(f"{stem}.csv"), Path(f"{stem}.events.csv")

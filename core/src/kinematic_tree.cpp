@@ -5,6 +5,23 @@
 #include <string>
 
 namespace dynfilter {
+namespace {
+
+// The body whose origin is highest in the model's present state (the first among equals).
+int highestBody(const IDynamicsModel& model) {
+  int highest = 0;
+  double z_max = -1e300;
+  for (int b = 0; b < static_cast<int>(model.info().body_names.size()); ++b) {
+    const double z = model.bodyPose(b).translation().z();
+    if (z > z_max + 1e-12) {
+      z_max = z;
+      highest = b;
+    }
+  }
+  return highest;
+}
+
+}  // namespace
 
 bool KinematicTree::moves(int j, int b) const {
   for (int k = body_parent_joint[static_cast<std::size_t>(b)]; k >= 0;
@@ -119,7 +136,6 @@ KinematicTree kinematicTreeOf(IDynamicsModel& model) {
 int chooseTrunkBody(IDynamicsModel& model) {
   const ModelInfo& info = model.info();
   const KinematicTree tree = kinematicTreeOf(model);
-  const int nb = static_cast<int>(info.body_names.size());
   model.setState(info.neutralConfiguration(), Eigen::VectorXd::Zero(info.nv));
   std::vector<int> children(static_cast<std::size_t>(info.nj), 0);
   for (int j = 0; j < info.nj; ++j)
@@ -137,18 +153,70 @@ int chooseTrunkBody(IDynamicsModel& model) {
     }
     return deepest < 0 ? 0 : tree.joint_child_body[static_cast<std::size_t>(deepest)];
   }
-  int highest = tree.base_body;
-  double z_max = -1e300;
-  for (int b = 0; b < nb; ++b) {
-    const double z = model.bodyPose(b).translation().z();
-    if (z > z_max + 1e-12) {
-      z_max = z;
-      highest = b;
-    }
-  }
-  for (const int j : tree.jointsBetween(tree.base_body, highest))
+  for (const int j : tree.jointsBetween(tree.base_body, highestBody(model)))
     if (children[static_cast<std::size_t>(j)] >= 2) return tree.joint_child_body[static_cast<std::size_t>(j)];
   return tree.base_body;
+}
+
+const char* toString(JointGroup group) {
+  switch (group) {
+    case JointGroup::kSpine: return "spine";
+    case JointGroup::kLeg: return "legs";
+    case JointGroup::kArm: return "arms";
+    case JointGroup::kOther: break;
+  }
+  return "other";
+}
+
+std::vector<JointGroup> jointGroupsOf(IDynamicsModel& model) {
+  const ModelInfo& info = model.info();
+  std::vector<JointGroup> groups(static_cast<std::size_t>(info.nj), JointGroup::kOther);
+  if (!info.floating_base || info.nj == 0) return groups;
+  const int trunk = chooseTrunkBody(model);
+  const KinematicTree tree = kinematicTreeOf(model);
+  model.setState(info.neutralConfiguration(), Eigen::VectorXd::Zero(info.nv));  // base at the origin
+  const int nb = static_cast<int>(info.body_names.size());
+  double z_lo = 1e300, z_hi = -1e300, y_max = 0.0;
+  for (int b = 0; b < nb; ++b) {
+    const Eigen::Vector3d p = model.bodyPose(b).translation();
+    z_lo = std::min(z_lo, p.z());
+    z_hi = std::max(z_hi, p.z());
+    y_max = std::max(y_max, std::abs(p.y()));
+  }
+  for (const int j : tree.jointsBetween(tree.base_body, trunk))
+    groups[static_cast<std::size_t>(j)] = JointGroup::kSpine;
+  const auto onSpine = [&](int j) {
+    return j >= 0 && groups[static_cast<std::size_t>(j)] == JointGroup::kSpine;
+  };
+  // Each limb's root: the first joint off the base-to-trunk path on its chain.
+  std::vector<int> root(static_cast<std::size_t>(info.nj), -1);
+  for (int j = 0; j < info.nj; ++j) {
+    if (onSpine(j)) continue;
+    int r = j;
+    for (int p = tree.joint_parent_joint[static_cast<std::size_t>(r)]; p >= 0 && !onSpine(p);
+         p = tree.joint_parent_joint[static_cast<std::size_t>(r)])
+      r = p;
+    root[static_cast<std::size_t>(j)] = r;
+  }
+  for (int j = 0; j < info.nj; ++j) {
+    if (root[static_cast<std::size_t>(j)] != j) continue;
+    double z_min = 1e300;
+    for (int b = 0; b < nb; ++b)
+      if (tree.moves(j, b)) z_min = std::min(z_min, model.bodyPose(b).translation().z());
+    const double y_root =
+        std::abs(model.bodyPose(tree.joint_child_body[static_cast<std::size_t>(j)]).translation().y());
+    JointGroup& g = groups[static_cast<std::size_t>(j)];
+    if (z_min <= z_lo + 0.25 * (z_hi - z_lo))
+      g = JointGroup::kLeg;
+    else if (y_root <= 0.2 * y_max)
+      g = JointGroup::kSpine;  // a limb on the midline: neck and head
+    else
+      g = JointGroup::kArm;
+  }
+  for (int j = 0; j < info.nj; ++j)
+    if (root[static_cast<std::size_t>(j)] >= 0 && root[static_cast<std::size_t>(j)] != j)
+      groups[static_cast<std::size_t>(j)] = groups[static_cast<std::size_t>(root[static_cast<std::size_t>(j)])];
+  return groups;
 }
 
 }  // namespace dynfilter

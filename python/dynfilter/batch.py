@@ -53,6 +53,7 @@ SUMMARY_COLUMNS = [
     ("frames_cop_outside", "CoP"), ("frames_torsion_violation", "torsion"),
     ("frames_torque_over_limit", "torque limit"),
     ("frames_qp_fallback", "QP fallback"), ("joint_rms_rad", "joint RMS (rad)"),
+    ("joint_rms_legs_rad", "legs"), ("joint_rms_arms_rad", "arms"), ("joint_rms_spine_rad", "spine"),
     ("base_rms_m", "base RMS (m)"), ("max_base_residual_n", "max base residual (N)"),
     ("wall_s", "wall (s)"), ("error", "error"),
 ]
@@ -213,6 +214,9 @@ def clip_metrics(out: dict, model, friction: float) -> dict:
     m["frames_qp_relaxed"] = int(np.count_nonzero(status & 512))
     nb = 6 if model.floating_base else 0
     m["joint_rms_rad"] = _rms(out["tracking_error"][:, nb:])
+    groups = np.asarray(model.joint_groups)
+    for g in ("legs", "arms", "spine"):
+        m[f"joint_rms_{g}_rad"] = _rms(out["tracking_error"][:, nb:][:, groups == g])
     m["base_rms_m"] = _rms(out["tracking_error"][:, :3]) if nb else 0.0
     m["max_eq12_residual"] = float(np.max(np.abs(out["eq12_residual"])))
     m["max_base_residual_n"] = float(np.max(np.abs(out["base_residual_n"])))

@@ -3,6 +3,7 @@
 #include <pybind11/stl.h>
 
 #include "bindings.hpp"
+#include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/core/types.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
@@ -71,6 +72,15 @@ void bindModel(py::module_& m) {
                              [](const Model& mo) { return mo.engine->info().joint_names; })
       .def_property_readonly("body_names",
                              [](const Model& mo) { return mo.engine->info().body_names; })
+      .def_property_readonly(
+          "joint_groups",
+          [](Model& mo) {
+            std::vector<std::string> names;
+            for (const JointGroup g : jointGroupsOf(*mo.engine)) names.emplace_back(toString(g));
+            return names;
+          },
+          "(nj,) 'spine', 'legs', 'arms' or 'other' per joint, by the kinematic tree (no "
+          "names): the groups the tools report tracking errors in.")
       .def_property_readonly("q_lower", [](const Model& mo) { return mo.engine->info().q_lower; },
                              "(nj,) joint lower limits (rad or m), -inf when none")
       .def_property_readonly("q_upper", [](const Model& mo) { return mo.engine->info().q_upper; })

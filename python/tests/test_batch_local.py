@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import dynfilter
-from conftest import MODEL, ROOT, make_collection, read_csv, read_summary, run_batch
+from conftest import MODEL, ROOT, make_collection, read_csv, read_summary, run_batch, tool
 
 
 def test_batch_two_workers_reports_failures_and_skips_what_is_done(tmp_path):
@@ -33,6 +33,7 @@ def test_batch_two_workers_reports_failures_and_skips_what_is_done(tmp_path):
     # The summary counts what tools/paper_results.py counts from the same files.
     sys.path.insert(0, str(ROOT / "tools"))
     import paper_results
+    paper_results.MODEL_INFO = tool("model_info")
     pm = paper_results.Model(str(MODEL))
     for name in ("walk", "kick", "squat"):
         m = paper_results.metrics_of(out / name / "filtered.csv",
@@ -45,6 +46,9 @@ def test_batch_two_workers_reports_failures_and_skips_what_is_done(tmp_path):
         joints = np.column_stack([t["err." + j] for j in pm.moving])
         assert float(rows[name]["joint_rms_rad"]) == pytest.approx(
             np.sqrt(np.mean(joints ** 2)), rel=1e-12)
+        for g in ("legs", "arms", "spine"):  # the binding's groups against the tool's
+            assert float(rows[name][f"joint_rms_{g}_rad"]) == pytest.approx(
+                m[f"joint_rms_{g}_rad"], rel=1e-12), (name, g)
     # The paper mode's walk breaks the contact physics (its bilateral feet pull, slip or
     # put the CoP off the sole; first second of the cleaned walk: 23 frames outside the
     # friction cone, 119 with the CoP outside): the counts are not all zero.

@@ -303,6 +303,36 @@ TEST(KinematicTree, ChoosesTheTrunkByStructure) {
                                              "talo_l_y", "talo_l_x"}));
 }
 
+// Joint groups by structure: on the mini humanoid (no head: its shoulders are its highest
+// bodies) and on the human figure (a neck on the midline), against what their names say.
+TEST(KinematicTree, GroupsJointsByStructure) {
+  const auto byName = [](const std::string& n) {
+    for (const char* leg : {"hip", "knee", "ankle", "toe", "coxa", "genu", "talo"})
+      if (n.find(leg) != std::string::npos) return JointGroup::kLeg;
+    for (const char* arm : {"shoulder", "elbow", "wrist", "arm", "cubitus"})
+      if (n.find(arm) != std::string::npos) return JointGroup::kArm;
+    return JointGroup::kSpine;  // waist, neck, spine_twist
+  };
+  auto mini = test::makeMiniHumanoid();
+  auto human = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  int spine_joints = 0;
+  for (IDynamicsModel* m : {mini.get(), human.get()}) {
+    const std::vector<JointGroup> groups = jointGroupsOf(*m);
+    ASSERT_EQ(groups.size(), static_cast<std::size_t>(m->info().nj));
+    for (int j = 0; j < m->info().nj; ++j) {
+      const std::string& name = m->info().joint_names[static_cast<std::size_t>(j)];
+      EXPECT_EQ(toString(groups[static_cast<std::size_t>(j)]), std::string(toString(byName(name))))
+          << m->info().name << " " << name;
+      spine_joints += groups[static_cast<std::size_t>(j)] == JointGroup::kSpine;
+    }
+  }
+  EXPECT_GE(spine_joints, 1 + 6) << "the mini's twist, the figure's waist and neck";
+  ModelOptions welded;
+  welded.floating_base = false;
+  auto arm = test::makeModel("dart", urdf::loadUrdfFile(test::sourcePath("tests/models/arm7.urdf")), welded);
+  for (const JointGroup g : jointGroupsOf(*arm)) EXPECT_EQ(g, JointGroup::kOther) << "fixed base";
+}
+
 // A standing reference whose feet skate 6 cm forward and sink 1.5 cm over the clip, with
 // an elbow beyond its limit: the clean-up holds both stance feet still on the ground and
 // brings every joint inside its limits.

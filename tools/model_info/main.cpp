@@ -6,10 +6,12 @@
 #include <cstdio>
 #include <exception>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "dynfilter/core/errors.hpp"
+#include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
@@ -22,12 +24,15 @@ using dynfilter::IDynamicsModel;
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 
-void printJoints(const dynfilter::ModelInfo& info) {
-  std::printf("\n%-20s %9s %9s %9s %9s\n", "joint", "lower°", "upper°", "|τ|max", "|q̇|max");
+void printJoints(IDynamicsModel& model) {
+  const dynfilter::ModelInfo& info = model.info();
+  const std::vector<dynfilter::JointGroup> groups = dynfilter::jointGroupsOf(model);
+  std::printf("\n%-20s %9s %9s %9s %9s  %s\n", "joint", "lower°", "upper°", "|τ|max", "|q̇|max",
+              "group (by structure)");
   for (int j = 0; j < info.nj; ++j)
-    std::printf("%-20s %9.1f %9.1f %9.1f %9.1f\n", info.joint_names[j].c_str(),
+    std::printf("%-20s %9.1f %9.1f %9.1f %9.1f  %s\n", info.joint_names[j].c_str(),
                 info.q_lower[j] * kRadToDeg, info.q_upper[j] * kRadToDeg, info.tau_max[j],
-                info.v_max[j]);
+                info.v_max[j], dynfilter::toString(groups[static_cast<std::size_t>(j)]));
 }
 
 }  // namespace
@@ -39,7 +44,7 @@ int main(int argc, char** argv) {
   double seconds = 2.0;
   double dt = 1e-3;
   double kp = 2000.0, kd = 40.0;
-  bool list_joints = false;
+  bool list_joints = false, joint_groups = false;
   std::string backend = "dart";
   auto* positional = app.add_option("urdf", urdf_path, "URDF file (default: the human figure)");
   app.add_option("-m,--model", urdf_path, "URDF file, as every tool takes it (same as the positional)")
@@ -48,6 +53,9 @@ int main(int argc, char** argv) {
   app.add_option("--backend", backend, "dynamics backend: dart or ode")
       ->check(CLI::IsMember(dynfilter::availableBackends()));
   app.add_flag("--joints", list_joints, "print every joint with its limits");
+  app.add_flag("--joint-groups", joint_groups,
+               "print only CSV lines joint,group (spine|legs|arms|other, by structure) and exit")
+      ->excludes("--joints");
   app.add_option("--seconds", seconds, "simulated standing time (s)")->check(CLI::NonNegativeNumber);
   app.add_option("--dt", dt, "simulation step (s)")->check(CLI::PositiveNumber);
   app.add_option("--kp", kp, "posture stiffness (N m / rad), capped per joint where a step of "
@@ -65,6 +73,14 @@ int main(int argc, char** argv) {
     options.floating_base = !fixed_base;
     auto model = dynfilter::makeModel(backend, robot, options);
     const auto& info = model->info();
+    if (joint_groups) {
+      const std::vector<dynfilter::JointGroup> groups = dynfilter::jointGroupsOf(*model);
+      std::printf("joint,group\n");
+      for (int j = 0; j < info.nj; ++j)
+        std::printf("%s,%s\n", info.joint_names[static_cast<std::size_t>(j)].c_str(),
+                    dynfilter::toString(groups[static_cast<std::size_t>(j)]));
+      return 0;
+    }
     std::printf("model %s (%s backend) from %s\n", info.name.c_str(),
                 std::string(model->backendName()).c_str(), urdf_path.c_str());
     std::printf("  bodies %zu, actuated joints N_J = %d, nq = %d, nv = N_G = %d, %s base\n",
@@ -83,7 +99,7 @@ int main(int argc, char** argv) {
     if (!robot.ignored_elements.empty() && !model_cli.verbose)
       std::printf("  %zu kinds of URDF elements ignored (--verbose lists them)\n",
                   robot.ignored_elements.size());
-    if (list_joints) printJoints(info);
+    if (list_joints) printJoints(*model);
 
     // Timing of the dynamics terms at one state (a benchmark lives in tests/bench).
     Eigen::MatrixXd A(info.nv, info.nv);

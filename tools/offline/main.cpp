@@ -197,7 +197,7 @@ int main(int argc, char** argv) {
     const int nb = model->info().floating_base ? 6 : 0;
     io::FilteredMotionWriter writer(output_path, model->info());
     BodyPositionWriter bodies(bodies_path, model->info());
-    tools::RunSummary summary(model->info());
+    tools::RunSummary summary(model->info(), jointGroupsOf(*coordinates));
     ProgressBar progress(!no_progress && !quiet && isatty(STDERR_FILENO));
     const auto wall0 = std::chrono::steady_clock::now();
     int written = 0;

@@ -4,11 +4,9 @@
 #include <cmath>
 
 namespace dynfilter::tools {
-namespace {
-bool contains(const std::string& s, const char* part) { return s.find(part) != std::string::npos; }
-}  // namespace
 
-RunSummary::RunSummary(const ModelInfo& info) : info_(info) {
+RunSummary::RunSummary(const ModelInfo& info, const std::vector<JointGroup>& joint_groups)
+    : info_(info) {
   if (info.floating_base) {
     groups_.push_back({"base position (m)", {0, 1, 2}});
     groups_.push_back({"base orientation (rad)", {3, 4, 5}});
@@ -16,18 +14,13 @@ RunSummary::RunSummary(const ModelInfo& info) : info_(info) {
   Group legs{"legs (rad)", {}}, arms{"arms (rad)", {}}, spine{"spine, head (rad)", {}},
       other{"other joints", {}};
   for (int j = 0; j < info.nj; ++j) {
-    const std::string& n = info.joint_names[j];
     const int i = info.velocityIndex(j);
-    if (contains(n, "hip") || contains(n, "knee") || contains(n, "ankle") || contains(n, "toe"))
-      legs.coordinates.push_back(i);
-    else if (contains(n, "shoulder") || contains(n, "elbow") || contains(n, "wrist") ||
-             contains(n, "forearm"))
-      arms.coordinates.push_back(i);
-    else if (contains(n, "waist") || contains(n, "neck") || contains(n, "spine") ||
-             contains(n, "torso") || contains(n, "head"))
-      spine.coordinates.push_back(i);
-    else
-      other.coordinates.push_back(i);
+    switch (joint_groups.at(static_cast<std::size_t>(j))) {
+      case JointGroup::kLeg: legs.coordinates.push_back(i); break;
+      case JointGroup::kArm: arms.coordinates.push_back(i); break;
+      case JointGroup::kSpine: spine.coordinates.push_back(i); break;
+      case JointGroup::kOther: other.coordinates.push_back(i); break;
+    }
   }
   for (Group* g : {&legs, &arms, &spine, &other})
     if (!g->coordinates.empty()) groups_.push_back(*g);

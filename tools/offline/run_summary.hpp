@@ -6,13 +6,15 @@
 #include <vector>
 
 #include "dynfilter/core/filter_output.hpp"
+#include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/model_info.hpp"
 
 namespace dynfilter::tools {
 
 class RunSummary {
  public:
-  explicit RunSummary(const ModelInfo& info);
+  /// @param joint_groups dim nj (jointGroupsOf): the tracking RMS is printed per group.
+  RunSummary(const ModelInfo& info, const std::vector<JointGroup>& joint_groups);
   /// Accumulates one filter tick.
   void add(const FilterOutput& out);
   /// Prints the table to @p stream: @p frames written, @p motion_s of motion, @p wall_s of

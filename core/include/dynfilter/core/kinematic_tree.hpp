@@ -50,4 +50,20 @@ KinematicTree kinematicTreeOf(IDynamicsModel& model);
 /// joint of the longest chain. Changes the model's state.
 int chooseTrunkBody(IDynamicsModel& model);
 
+/// What a joint moves, by structure: for reports that group tracking errors.
+enum class JointGroup : int { kSpine = 0, kLeg = 1, kArm = 2, kOther = 3 };
+/// "spine", "legs", "arms", "other": static strings.
+const char* toString(JointGroup group);
+
+/// Groups the joints of a floating-base model by structure (no names), at its neutral
+/// configuration (URDF convention: x forward, y left, z up). The spine is the path from the
+/// base to the trunk (chooseTrunkBody). Every other joint belongs to the limb that leaves
+/// that path where its chain does. A limb is a leg when its lowest body origin is within a
+/// quarter of the model's height (highest minus lowest body origin) of the lowest; else
+/// part of the spine when it leaves on the midline (|y| of its first body within a fifth of
+/// the widest body's: neck and head); else an arm (hands, grippers and fingers included).
+/// Every joint of a fixed-base model is kOther.
+/// @return dim nj. Changes the model's state.
+std::vector<JointGroup> jointGroupsOf(IDynamicsModel& model);
+
 }  // namespace dynfilter
