@@ -161,10 +161,10 @@ TEST(Offline, AnUnknownModelFileIsAClearError) {
 
 }  // namespace
 
-TEST(Offline, ReSeedsBetweenWrittenRowsShowInTheNextRowAndTheSummary) {
-  // The squat (120 Hz, 4 ticks a frame at 500 Hz) whose base jumps 2 m along x from frame
-  // 200 on: the interpolated reference passes the 0.5 m guard inside a frame interval, so
-  // the figure re-seeds on ticks that write no row.
+// The squat (120 Hz, 4 ticks a frame at 500 Hz) whose base jumps 2 m along x from frame
+// 200 on: the interpolated reference passes the 0.5 m guard inside a frame interval, so
+// the figure re-seeds on ticks that write no row.
+std::string writeJumpingSquat() {
   std::ifstream in(kSquat);
   const std::string jumping = testing::TempDir() + "/jumping_squat.csv";
   std::ofstream file(jumping);
@@ -182,6 +182,11 @@ TEST(Offline, ReSeedsBetweenWrittenRowsShowInTheNextRowAndTheSummary) {
     file << line << "\n";
   }
   file.close();
+  return jumping;
+}
+
+TEST(Offline, ReSeedsBetweenWrittenRowsShowInTheNextRowAndTheSummary) {
+  const std::string jumping = writeJumpingSquat();
   const std::string out = testing::TempDir() + "/jumping_out.csv";
   const std::string events = testing::TempDir() + "/jumping_events.csv";
   const dynfilter::test::ProgramRun run =
@@ -219,4 +224,45 @@ TEST(Offline, ReSeedsBetweenWrittenRowsShowInTheNextRowAndTheSummary) {
   std::snprintf(summary, sizeof summary, "re-seeds              %zu ticks, the first at %.3f s",
                 reseed_times.size(), reseed_times.front());
   EXPECT_NE(run.output.find(summary), std::string::npos) << run.output;
+}
+
+// Fields of a CSV line with RFC 4180 quotes (a quoted field may hold commas).
+std::vector<std::string> splitQuoted(const std::string& line) {
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (const char c : line) {
+    if (c == '"')
+      quoted = !quoted;
+    else if (c == ',' && !quoted)
+      fields.emplace_back();
+    else
+      fields.back() += c;
+  }
+  return fields;
+}
+
+TEST(Offline, EventRowsKeepTheirColumnsWhenSeveralConstraintFamiliesAreViolated) {
+  // In the QP mode the jumping squat's re-seeds come with relaxed ticks whose full QP
+  // violated several families: "equality,unilateral,..." is one quoted field.
+  const std::string events = testing::TempDir() + "/jumping_qp_events.csv";
+  const dynfilter::test::ProgramRun run =
+      runOffline(writeJumpingSquat() + " -o " + testing::TempDir() + "/jumping_qp_out.csv" +
+                 " --no-progress -q --mode qp --events-csv " + events);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  std::ifstream in(events);
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  const std::vector<std::string> header = splitQuoted(line);
+  ASSERT_EQ(header.size(), 9u);
+  const int violated = column(header, "qp_violated"), rotation = column(header, "base_rotation_rad");
+  int several = 0, rows = 0;
+  while (std::getline(in, line)) {
+    const std::vector<std::string> f = splitQuoted(line);
+    ASSERT_EQ(f.size(), header.size()) << line;
+    several += f[static_cast<std::size_t>(violated)].find(',') != std::string::npos;
+    EXPECT_GE(std::stod(f[static_cast<std::size_t>(rotation)]), 0.0) << line;
+    ++rows;
+  }
+  EXPECT_GT(rows, 0);
+  EXPECT_GT(several, 0) << "the case needs a row with several families";
 }

@@ -143,7 +143,8 @@ int main(int argc, char** argv) {
   app.add_option("--events-csv", events_path,
                  "also write one row per tick that re-seeded, relaxed or fell back: "
                  "time,tick,status,reseed_reason,qp_relaxation,qp_violated,base_error_m,"
-                 "base_rotation_rad,max_joint_error_rad (what tools/diagnose_reseeds.py reads)");
+                 "base_rotation_rad,max_joint_error_rad (qp_violated quoted: a comma-separated list of "
+                 "constraint families; what tools/diagnose_reseeds.py reads)");
   app.add_flag("-q,--quiet", quiet, "no summary");
   CLI11_PARSE(app, argc, argv);
 
@@ -214,7 +215,7 @@ int main(int argc, char** argv) {
               (out.status & (kStatusReseeded | kStatusQpRelaxed | kStatusQpFallback))) {
             char violated[96];
             const Eigen::VectorXd& e = out.tracking_error;
-            std::fprintf(events, "%.6f,%ld,%u,%s,%u,%s,%.6g,%.6g,%.6g\n", tick.time_s, tick.index,
+            std::fprintf(events, "%.6f,%ld,%u,%s,%u,\"%s\",%.6g,%.6g,%.6g\n", tick.time_s, tick.index,
                          out.status, (out.status & kStatusReseeded) ? toString(out.reseed_reason) : "",
                          out.qp_relaxation,
                          describeQpFamilies(out.qp_violated, violated, sizeof violated),
