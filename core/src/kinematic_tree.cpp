@@ -133,9 +133,11 @@ KinematicTree kinematicTreeOf(IDynamicsModel& model) {
   return tree;
 }
 
-int chooseTrunkBody(IDynamicsModel& model) {
+namespace {
+
+// chooseTrunkBody on a tree already found; leaves the model at its neutral configuration.
+int trunkBodyOf(IDynamicsModel& model, const KinematicTree& tree) {
   const ModelInfo& info = model.info();
-  const KinematicTree tree = kinematicTreeOf(model);
   model.setState(info.neutralConfiguration(), Eigen::VectorXd::Zero(info.nv));
   std::vector<int> children(static_cast<std::size_t>(info.nj), 0);
   for (int j = 0; j < info.nj; ++j)
@@ -158,6 +160,10 @@ int chooseTrunkBody(IDynamicsModel& model) {
   return tree.base_body;
 }
 
+}  // namespace
+
+int chooseTrunkBody(IDynamicsModel& model) { return trunkBodyOf(model, kinematicTreeOf(model)); }
+
 const char* toString(JointGroup group) {
   switch (group) {
     case JointGroup::kSpine: return "spine";
@@ -172,9 +178,8 @@ std::vector<JointGroup> jointGroupsOf(IDynamicsModel& model) {
   const ModelInfo& info = model.info();
   std::vector<JointGroup> groups(static_cast<std::size_t>(info.nj), JointGroup::kOther);
   if (!info.floating_base || info.nj == 0) return groups;
-  const int trunk = chooseTrunkBody(model);
   const KinematicTree tree = kinematicTreeOf(model);
-  model.setState(info.neutralConfiguration(), Eigen::VectorXd::Zero(info.nv));  // base at the origin
+  const int trunk = trunkBodyOf(model, tree);  // leaves the base at the origin
   const int nb = static_cast<int>(info.body_names.size());
   double z_lo = 1e300, z_hi = -1e300, y_max = 0.0;
   for (int b = 0; b < nb; ++b) {
