@@ -95,8 +95,10 @@ class DaqpSolver final : public IQpSolver {
     // DAQP's factor of H and its v = R⁻ᵀ f stay valid while H and g do (a re-solve whose
     // rows changed, e.g. a relaxation): then only the rows' images are formed again.
     const bool same_objective = was_loaded && H_.cwiseEqual(p.H).all() && f_.cwiseEqual(p.g).all();
-    H_ = p.H;
-    f_ = p.g;
+    if (!same_objective) {
+      H_ = p.H;
+      f_ = p.g;
+    }
     rows_.topRows(n_eq_) = p.A;
     rows_.bottomRows(n_in_) = p.C;
     if (!H_.allFinite() || !f_.allFinite() || !rows_.allFinite()) {
