@@ -125,6 +125,7 @@ def run_case(name, args, build, out):
 
 COLUMNS = [
     ("reseed_ticks", "re-seeds", "{:d}"),
+    ("reseed_falls", "falls", "{:d}"),
     ("joint_rms_rad", "joints (rad)", "{:.3f}"),
     ("joint_rms_legs_rad", "legs", "{:.3f}"),
     ("joint_rms_arms_rad", "arms", "{:.3f}"),
@@ -168,7 +169,8 @@ def main():
     for name in names:
         L.append(f"| {name} | " + " | ".join(pr.fmt(results[name], k, f) for k, _, f in COLUMNS) + " |")
     total = sum(int(results[n]["reseed_ticks"]) for n in names)
-    L.append(f"\nre-seeding ticks over all cases: {total}")
+    falls = sum(int(results[n]["reseed_falls"]) for n in names)
+    L.append(f"\nre-seeding ticks over all cases: {total}, of which falls: {falls}")
     text = "\n".join(L) + "\n"
     print(text)
     (out / "matrix.md").write_text(text)

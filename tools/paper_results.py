@@ -382,16 +382,31 @@ def metrics_of(filtered_csv, contacts_csv, model=None, mu=0.8):
     return m
 
 
+FALL_REASONS = ("base position error", "base rotation error")
+
+
+def count_reseeds(events_csv):
+    """(re-seeding ticks, falls) of a `dynfilter-offline --events-csv` file: every tick with
+    the re-seed bit, and those whose guard's reason is the base's position or orientation.
+    A joint-error re-seed also resets the base, so it can pre-empt a fall: compare falls,
+    not only ticks. (0, 0) when the file does not exist."""
+    if not Path(events_csv).exists():
+        return 0, 0
+    ticks = falls = 0
+    with open(events_csv, newline="") as f:
+        for r in csv.DictReader(f):
+            if int(r["status"]) & 16:
+                ticks += 1
+                falls += r["reseed_reason"] in FALL_REASONS
+    return ticks, falls
+
+
 def motion_metrics(filtered_csv, reference_csv, bodies_csv, contacts_csv, events_csv, model):
     """Issue 13's per-mode numbers: re-seeds (every tick, from --events-csv), base and CoM
     error, stance-foot skate in the output, the largest per-frame base jump."""
     import diagnose_reseeds as dr  # the URDF's masses and forward kinematics with rotations
     m = {}
-    reseeds = 0
-    if Path(events_csv).exists():
-        with open(events_csv, newline="") as f:
-            reseeds = sum(1 for r in csv.DictReader(f) if int(r["status"]) & 16)
-    m["reseed_ticks"] = reseeds
+    m["reseed_ticks"], m["reseed_falls"] = count_reseeds(events_csv)
     fil, ref = read_table(filtered_csv), read_table(reference_csv)
     base = np.column_stack([fil[f"base_{c}"] for c in "xyz"])
     m["base_rms_m"] = float(math.sqrt(np.mean(np.sum(np.column_stack(
@@ -633,6 +648,7 @@ MODE_ROWS = [
     ("max_penetration_mm", "max penetration (mm)", "{:.2f}"),
     ("frames_reseeded", "frames re-seeded from the reference (divergence guard)", "{:d}"),
     ("reseed_ticks", "re-seeding ticks (every tick, --events-csv)", "{:d}"),
+    ("reseed_falls", "of which falls (base position or orientation error)", "{:d}"),
     ("base_rms_m", "base position RMS (m)", "{:.4f}"),
     ("com_rms_m", "centre of mass error RMS (m)", "{:.4f}"),
     ("max_stance_skate_mm", "largest stance-foot skate in the output (mm)", "{:.1f}"),

@@ -1,7 +1,9 @@
 """tools/balance_matrix.py's mirrored case: mirroring a BVH twice gives the original back,
 and the mirrored CMU walk retargeted to the human figure is the walk with its sides
 swapped: the left knee of the mirrored reference bends as the right knee of the original,
-frame by frame, and the base keeps its height (within 1 cm RMS). Run with the venv's python (ctest
+frame by frame, and the base keeps its height (within 1 cm RMS). Also the matrix's re-seed
+columns: every tick with the re-seed bit, and the falls among them by the guard's reason,
+read from an events file whose quoted fields hold commas. Run with the venv's python (ctest
 balance_matrix_mirror); exits 77 (skipped) when numpy is missing.
 
     build/venv/bin/python tests/tools/balance_matrix_test.py --bvh2ref build/tools/bvh2ref/dynfilter-bvh2ref
@@ -44,6 +46,17 @@ def main():
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
+        events = tmp / "events.csv"
+        events.write_text(
+            "time,tick,status,reseed_reason,qp_relaxation,qp_violated,base_error_m,base_rotation_rad,max_joint_error_rad\n"
+            '1.0,480,528,joint error,1,"equality,unilateral",0.1,0.2,2.1\n'
+            '1.5,720,512,,1,"equality,unilateral,friction",0.1,0.2,0.3\n'
+            '2.0,960,16,base rotation error,0,"",0.3,1.01,0.5\n'
+            '2.5,1200,16,base position error,0,"",0.51,0.4,0.5\n')
+        if pr.count_reseeds(events) != (3, 2):
+            fail(f"re-seeds and falls of the events file: {pr.count_reseeds(events)}, expected (3, 2)")
+        if pr.count_reseeds(tmp / "none.csv") != (0, 0):
+            fail("a missing events file does not count as no re-seed")
         once, twice = tmp / "once.bvh", tmp / "twice.bvh"
         bm.mirror_bvh(BVH, once)
         bm.mirror_bvh(once, twice)
