@@ -74,7 +74,7 @@ def run(job):
         rows = list(csv.DictReader(f))
     m = pr.metrics_of(fil, Path(f"{stem}.contacts.csv"), pr.Model(pr.URDF))
     return (name, seed, b, sum(1 for r in rows if int(r["qp_relaxation"]) > 0),
-            sum(1 for r in rows if int(r["status"]) & 16), m["joint_rms_legs_rad"])
+            pr.count_reseeds(events)[0], m["joint_rms_legs_rad"])
 
 
 def main():
