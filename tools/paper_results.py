@@ -402,8 +402,8 @@ def count_reseeds(events_csv):
 
 
 def motion_metrics(filtered_csv, reference_csv, bodies_csv, contacts_csv, events_csv, model):
-    """Issue 13's per-mode numbers: re-seeds (every tick, from --events-csv), base and CoM
-    error, stance-foot skate in the output, the largest per-frame base jump."""
+    """Issue 13's per-mode numbers: re-seeds and falls (every tick, from --events-csv), base
+    and CoM error, stance-foot skate in the output, the largest per-frame base jump."""
     import diagnose_reseeds as dr  # the URDF's masses and forward kinematics with rotations
     m = {}
     m["reseed_ticks"], m["reseed_falls"] = count_reseeds(events_csv)
