@@ -385,20 +385,25 @@ def metrics_of(filtered_csv, contacts_csv, model=None, mu=0.8):
 FALL_REASONS = ("base position error", "base rotation error")
 
 
+def reseed_counts(rows):
+    """(re-seeding ticks, falls) of the rows of a `dynfilter-offline --events-csv` file
+    (csv.DictReader): every tick with the re-seed bit, and those whose guard's reason is the
+    base's position or orientation. A joint-error re-seed also resets the base, so it can
+    pre-empt a fall: compare falls, not only ticks."""
+    ticks = falls = 0
+    for r in rows:
+        if int(r["status"]) & 16:
+            ticks += 1
+            falls += r["reseed_reason"] in FALL_REASONS
+    return ticks, falls
+
+
 def count_reseeds(events_csv):
-    """(re-seeding ticks, falls) of a `dynfilter-offline --events-csv` file: every tick with
-    the re-seed bit, and those whose guard's reason is the base's position or orientation.
-    A joint-error re-seed also resets the base, so it can pre-empt a fall: compare falls,
-    not only ticks. (0, 0) when the file does not exist."""
+    """reseed_counts of an events file; (0, 0) when the file does not exist."""
     if not Path(events_csv).exists():
         return 0, 0
-    ticks = falls = 0
     with open(events_csv, newline="") as f:
-        for r in csv.DictReader(f):
-            if int(r["status"]) & 16:
-                ticks += 1
-                falls += r["reseed_reason"] in FALL_REASONS
-    return ticks, falls
+        return reseed_counts(csv.DictReader(f))
 
 
 def motion_metrics(filtered_csv, reference_csv, bodies_csv, contacts_csv, events_csv, model):

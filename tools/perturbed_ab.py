@@ -74,7 +74,7 @@ def run(job):
         rows = list(csv.DictReader(f))
     m = pr.metrics_of(fil, Path(f"{stem}.contacts.csv"), pr.Model(pr.URDF))
     return (name, seed, b, sum(1 for r in rows if int(r["qp_relaxation"]) > 0),
-            pr.count_reseeds(events)[0], m["joint_rms_legs_rad"])
+            pr.reseed_counts(rows)[0], m["joint_rms_legs_rad"])
 
 
 def main():
