@@ -83,6 +83,7 @@ def main():
                     help="this many frames before a landing and after a lift-off, the sole is held above its contact place (rising 1 mm a frame)")
     ap.add_argument("--unload-frames", type=int, default=0,
                     help="over this many frames before a lift-off the sole's normal force ramps down to zero")
+    ap.add_argument("--start-from", help="a previous output CSV: the window starts from its state at T0 (q, v)")
     ap.add_argument("--limits", action="store_true", help="soft joint limits (0.03 rad inside) and torque limits (0.9 of the URDF's)")
     args = ap.parse_args()
 
@@ -222,10 +223,25 @@ def main():
         dam = crocoddyl.DifferentialActionModelContactFwdDynamics(state, actuation, contacts, costs, 0.0, True)
         return crocoddyl.IntegratedActionModelEuler(dam, 0.0 if terminal else dt)
 
-    problem = crocoddyl.ShootingProblem(xs_ref[0], [node(k, False) for k in range(n - 1)], node(n - 1, True))
+    x0 = xs_ref[0]
+    if args.start_from:
+        prev_hdr, prev = read_csv(args.start_from)
+        pc = {c: i for i, c in enumerate(prev_hdr)}
+        row = prev[int(np.argmin(abs(prev[:, 0] - times[k0])))]
+        q0 = np.zeros(model.nq)
+        q0[0:3] = [row[pc["base_x"]], row[pc["base_y"]], row[pc["base_z"]]]
+        q0[3:7] = [row[pc["base_qx"]], row[pc["base_qy"]], row[pc["base_qz"]], row[pc["base_qw"]]]
+        v0 = np.zeros(model.nv)
+        v0[0:6] = [row[pc[c]] for c in ("base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz")]
+        for j in range(2, model.njoints):
+            q0[model.joints[j].idx_q] = row[pc[model.names[j]]]
+            v0[model.joints[j].idx_v] = row[pc[model.names[j] + ".v"]]
+        x0 = np.concatenate([q0, v0])
+    problem = crocoddyl.ShootingProblem(x0, [node(k, False) for k in range(n - 1)], node(n - 1, True))
     solver = crocoddyl.SolverFDDP(problem)
     start = time.time()
-    solver.solve(list(xs_ref), problem.quasiStatic(xs_ref[:-1]), args.iterations, False)
+    xs_init = [x0] + list(xs_ref[1:])
+    solver.solve(xs_init, problem.quasiStatic(xs_init[:-1]), args.iterations, False)
     # The solution's contact wrenches against the full sole and the filter's friction (0.8).
     bad = {"pull": 0, "cop": 0, "friction": 0, "nodes": 0}
     for k, d in enumerate(problem.runningDatas):
