@@ -84,7 +84,8 @@ def main():
     ap.add_argument("--unload-frames", type=int, default=0,
                     help="over this many frames before a lift-off the sole's normal force ramps down to zero")
     ap.add_argument("--start-from", help="a previous output CSV: the window starts from its state at T0 (q, v)")
-    ap.add_argument("--limits", action="store_true", help="soft joint limits (0.03 rad inside), velocity and torque limits (0.9 of the URDF's)")
+    ap.add_argument("--limits", action="store_true", help="soft joint limits (0.03 rad inside) and torque limits (0.9 of the URDF's)")
+    ap.add_argument("--velocity-limits", action="store_true", help="with --limits: soft velocity limits (0.9 of the URDF's)")
     args = ap.parse_args()
 
     model = build_model(args.urdf)
@@ -165,8 +166,9 @@ def main():
     ub = np.full(state.ndx, 1e9)
     lb[6:model.nv] = model.lowerPositionLimit[7:] + 0.03
     ub[6:model.nv] = model.upperPositionLimit[7:] - 0.03
-    lb[model.nv + 6:] = -0.9 * model.velocityLimit[6:]
-    ub[model.nv + 6:] = 0.9 * model.velocityLimit[6:]
+    if args.velocity_limits:
+        lb[model.nv + 6:] = -0.9 * model.velocityLimit[6:]
+        ub[model.nv + 6:] = 0.9 * model.velocityLimit[6:]
     tau_max = 0.9 * model.effortLimit[6:]
     weight_n = pin.computeTotalMass(model) * 9.81
     cones = []
