@@ -2,7 +2,8 @@
 """Two builds of the filter compared over perturbed copies of the check matrix's clips.
 
     build/venv/bin/python tools/perturbed_ab.py --builds /work/main/build,build \
-        [--only walk,jump] [--seeds 24] [--noise 1e-6] [--mode qp] [--out build/perturbed_ab]
+        [--configs ,c.yaml] [--only walk,jump] [--seeds 24] [--noise 1e-6] [--mode qp] \
+        [--out build/perturbed_ab]
 
 The counts of tools/balance_matrix.py (relaxed ticks, re-seeding ticks) and the joint RMS
 are chaotic in the reference: Gaussian noise of 1e-6 (rad, m) on every joint and base
@@ -59,13 +60,15 @@ def perturb(src, dst, seed, noise):
 
 
 def run(job):
-    name, seed, b, build, ref, args, out = job
+    name, seed, b, build, config, ref, args, out = job
     pr.MODEL_INFO = build / "tools" / "model_info" / "dynfilter-model-info"
     _, _, _, slope, backend, _ = bm.CASES[name]
     stem = out / f"{name}_s{seed}_b{b}"
     fil, events = Path(f"{stem}.csv"), Path(f"{stem}.events.csv")
     cmd = [str(build / "tools/offline/dynfilter-offline"), str(ref), "-o", str(fil), "--no-progress", "-q",
            "--mode", args.mode, "--backend", backend, "--events-csv", str(events)]
+    if config:
+        cmd += ["--config", config]
     if slope:
         heading, _ = pr.heading_of(ref)
         cmd += ["--slope-deg", f"{slope:g}", "--slope-heading-deg", f"{heading:.1f}"]
@@ -80,6 +83,8 @@ def run(job):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--builds", required=True, help="two build directories, comma-separated")
+    ap.add_argument("--configs", default=",",
+                    help="a filter configuration per build, comma-separated (empty: the defaults)")
     ap.add_argument("--only", default="walk,jump,kick,walk_1.25x")
     ap.add_argument("--seeds", type=int, default=24)
     ap.add_argument("--noise", type=float, default=1e-6)
@@ -90,6 +95,9 @@ def main():
     builds = [Path(b).resolve() for b in args.builds.split(",")]
     if len(builds) != 2:
         sys.exit("--builds takes two build directories")
+    configs = [str(Path(c).resolve()) if c.strip() else "" for c in args.configs.split(",")]
+    if len(configs) != 2:
+        sys.exit("--configs takes two entries (either may be empty), comma-separated")
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     names = [n.strip() for n in args.only.split(",") if n.strip()]
@@ -99,12 +107,13 @@ def main():
         for seed in range(args.seeds):
             ref_s = out / f"{name}_s{seed}_reference.csv"
             perturb(ref, ref_s, seed, args.noise)
-            jobs += [(name, seed, b, builds[b], ref_s, args, out) for b in (0, 1)]
+            jobs += [(name, seed, b, builds[b], configs[b], ref_s, args, out) for b in (0, 1)]
     res = {}
     with cf.ProcessPoolExecutor(max_workers=args.jobs) as pool:
         for name, seed, b, relaxed, reseeds, legs in pool.map(run, jobs):
             res[(name, seed, b)] = (relaxed, reseeds, legs)
-    print(f"{args.seeds} references per case (noise {args.noise:g}); builds 0 = {builds[0]}, 1 = {builds[1]}")
+    print(f"{args.seeds} references per case (noise {args.noise:g}); builds 0 = {builds[0]} {configs[0]}, "
+          f"1 = {builds[1]} {configs[1]}")
     labels = ("relaxed ticks", "re-seeds", "leg RMS (rad)")
     for name in names:
         v = np.array([[res[(name, s, b)] for s in range(args.seeds)] for b in (0, 1)])  # build, seed, metric

@@ -222,9 +222,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
     lb.row = slot;
     lb.num_axes = link.num_axes;
-    lb.mu = link.object == kGroundObject || link.object >= static_cast<int>(environment.boxes.size())
-                ? environment.ground.friction
-                : environment.boxes[static_cast<std::size_t>(link.object)].friction;
+    lb.mu = environment.friction(link.object);
     lb.f_max = links.normalForceUpperBound(i, options_.min_normal_force_n,
                                            options_.release_transition_s);
     // No jerk: a held link unloads no faster than max(weight, its ramp's start force) per
@@ -246,6 +244,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     const int fx = nv_ + slot, fy = fx + 1, fz = fx + 2;
     qp.x_lower[fz] = lb.f_min;
     qp.x_upper[fz] = finiteOr(lb.f_max, kQpInfinity);
+    lb.facet_row = row;
     for (int k = 0; k < K; ++k, ++row) {
       qp.C(row, fx) = facet_cos_[k];
       qp.C(row, fy) = facet_sin_[k];
@@ -280,6 +279,8 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     if (options_.yaw_slip && link.kind != ContactKind::kPoint && link.yaw_slip != 0) {
       pivot(qp, i, link.yaw_slip, /*from_rest=*/false, H_C, u_C);
     }
+    lb.slide = link.slide_A;
+    if (!lb.slide.isZero()) slide(qp, i);
     slot += link.num_axes;
   }
 
@@ -291,7 +292,8 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     const VirtualLink& link = links[i];
     const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
     const int pivot = lb.yaw_slip * (lb.pivot_from_rest ? 2 : 1);
-    for (const int value : {link.body, link.object, link.num_axes, link.created_this_tick ? 1 : 0, pivot})
+    const int slides = lb.slide.isZero() ? 0 : 1;
+    for (const int value : {link.body, link.object, link.num_axes, link.created_this_tick ? 1 : 0, pivot, slides})
       signature = (signature ^ static_cast<std::uint64_t>(value + 2)) * 1099511628211ull;
   }
   if (signature != sc.signature) sc.solver->restartFromLastSolution();
@@ -444,6 +446,29 @@ void ContactQp::pivot(DenseQp& qp, int i, int sign, bool from_rest,
   lb.pivot_from_rest = from_rest;
 }
 
+void ContactQp::slide(DenseQp& qp, int i) {
+  const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+  const int fz = nv_ + lb.row + 2;
+  // The tangential rows become Coulomb's kinetic friction: f_t + μ ŝ f_z = 0.
+  for (int d = 0; d < 2; ++d) {
+    const int r = nb_ + lb.row + d;
+    qp.A.row(r).setZero();
+    qp.A(r, nv_ + lb.row + d) = 1.0;
+    qp.A(r, fz) = lb.mu * lb.slide[d];
+    qp.b[r] = 0.0;
+  }
+  // The friction pyramid gives way (the force lies on the cone). Nothing keeps the slide
+  // from reversing within the tick (a row that did cost the walk 64 more relaxed ticks):
+  // it overshoots its stop by at most the tick's friction, and the next tick sticks or
+  // slides back against it.
+  const int K = options_.friction_facets;
+  for (int k = 0; k < K; ++k) {
+    qp.C.row(lb.facet_row + k).setZero();
+    qp.l[lb.facet_row + k] = -kQpInfinity;
+    qp.u[lb.facet_row + k] = kQpInfinity;
+  }
+}
+
 void ContactQp::stick(DenseQp& qp, int i, const Eigen::Ref<const Eigen::MatrixXd>& H_C,
                       const Eigen::Ref<const Eigen::VectorXd>& u_C) {
   LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
@@ -504,12 +529,13 @@ std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
   r.tail(nj_) -= tau_J;
   if (r.cwiseAbs().maxCoeff() > equality_tolerance_) violated |= kQpFamilyEquality;
   for (int i = 0; i < nc; ++i) {
-    bool pivoting = false;  // a pivot's yaw row is not a constraint (checked below)
+    bool free_row = false;  // a pivot's yaw row, a slide's tangential rows (checked below)
     for (int l = 0; l < num_links_; ++l) {
       const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(l)];
-      pivoting = pivoting || (lb.yaw_slip != 0 && i == yawRow(lb));
+      free_row = free_row || (lb.yaw_slip != 0 && i == yawRow(lb));
+      free_row = free_row || (!lb.slide.isZero() && (i == lb.row || i == lb.row + 1));
     }
-    if (!pivoting && std::abs(H_C.row(i).dot(vdot) - u_C[i]) > kAccelTolerance) violated |= kQpFamilyEquality;
+    if (!free_row && std::abs(H_C.row(i).dot(vdot) - u_C[i]) > kAccelTolerance) violated |= kQpFamilyEquality;
   }
 
   for (int i = 0; i < num_links_; ++i) {
@@ -519,6 +545,10 @@ std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
     if (fz < lb.f_min - kForceTolerance || fz > lb.f_max + kForceTolerance)
       violated |= kQpFamilyUnilateral;
     if (std::hypot(fx, fy) > lb.mu * std::max(fz, 0.0) + kForceTolerance)
+      violated |= kQpFamilyFriction;
+    if (!lb.slide.isZero() &&
+        (std::abs(fx + lb.mu * lb.slide.x() * fz) > kForceTolerance ||
+         std::abs(fy + lb.mu * lb.slide.y() * fz) > kForceTolerance))
       violated |= kQpFamilyFriction;
     if (lb.num_axes >= 5) {
       const int my = lb.row + (lb.num_axes == 6 ? 4 : 3);

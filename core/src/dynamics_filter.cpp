@@ -54,6 +54,7 @@ DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& optio
       balance_ = std::make_unique<BalanceLayer>(model, options_.balance);
       balance_tasks_ = QpObjectiveTasks(balance_->maxTaskRows(), nv_ + 6 * options_.contacts.max_links);
       contact_qp_->setObjectiveTasks(&balance_tasks_);
+      links_.enableSliding(options_.qp.tangential_slip);
     }
   }
   const int max_rows = 6 * options_.contacts.max_links;
@@ -63,6 +64,8 @@ DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& optio
   last_reference_ = ReferenceFrame(info.nq, nv_);
   A_.setZero(nv_, nv_);
   H_C_.setZero(max_rows, nv_);
+  H_impact_.setZero(max_rows, nv_);
+  v_impact_.setZero(nv_);
   b_.setZero(nv_);
   u_C_.setZero(max_rows);
   tau_C_.setZero(max_rows);
@@ -260,7 +263,9 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   model_.massMatrix(A_);
   if (created > 0 && nc > 0 && options_.contacts.plastic_impact) {
     links_.assemble(model_, H_C, u_C);
-    if (constrained_.plasticImpact(A_, H_C, v_, tau_C)) {
+    if (links_.anySliding()) stickWithinFriction(H_C, tau_C);
+    const int stopped = links_.impactRows(H_C, H_impact_);
+    if (stopped > 0 && constrained_.plasticImpact(A_, H_impact_.topRows(stopped), v_, tau_C.head(stopped))) {
       model_.setState(q_, v_);
       status |= kStatusImpact;
       ++out_.counters.impacts;
@@ -319,6 +324,11 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
     ++out_.counters.pivot_ticks;
     break;
   }
+  for (int i = 0; i < out_.num_contacts; ++i) {
+    if (out_.contacts[static_cast<std::size_t>(i)].slide_W.isZero()) continue;
+    ++out_.counters.slide_ticks;
+    break;
+  }
   out_.time_s = ref.time_s;
   out_.q = q_;
   out_.v = v_;
@@ -358,6 +368,23 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   return out_;
 }
 
+void DynamicsFilter::stickWithinFriction(const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+                                         Eigen::Ref<Eigen::VectorXd> impulse) {
+  // Coulomb at the impulse level: a sliding link whose impulse, were it stopped with the
+  // others, would lie within its friction cone sticks; the others slide through the impact.
+  v_impact_ = v_;
+  if (!constrained_.plasticImpact(A_, H_C, v_impact_, impulse)) return;
+  const Environment& environment = model_.environment();
+  int row = 0;
+  for (int i = 0; i < links_.size(); ++i) {
+    const VirtualLink& link = links_[i];
+    const double mu = environment.friction(link.object);
+    if (!link.slide_A.isZero() && std::hypot(impulse[row], impulse[row + 1]) <= mu * impulse[row + 2])
+      links_.stopSlide(i);
+    row += link.num_axes;
+  }
+}
+
 std::uint32_t DynamicsFilter::solvePaper(Eigen::Ref<Eigen::MatrixXd> H_C,
                                          Eigen::Ref<Eigen::VectorXd> u_C,
                                          Eigen::Ref<Eigen::VectorXd> tau_C) {
@@ -394,6 +421,8 @@ std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
   for (int i = 0; i < links_.size(); ++i) {
     const int sign = report.ok ? contact_qp_->yawSlip(i) : 0;
     links_.setYawSlip(i, sign);
+    if (!links_[i].slide_A.isZero())  // a slide's tangential rows state the motion it took
+      for (const int r : {row, row + 1}) u_C[r] = H_C.row(r).dot(vdot_solved_);
     row += links_[i].num_axes;
     if (sign != 0) u_C[row - 1] = H_C.row(row - 1).dot(vdot_solved_);
   }

@@ -11,6 +11,9 @@ namespace {
 
 constexpr double kLiftedPairMaxDepth = 0.005;  // m
 constexpr double kRollingSinkDepth = 0.002;    // m: a rolling sole sinking deeper gets its face back
+constexpr double kSlideSpeed = 0.01;  // m/s: out of the reference's stance, a point this fast slides
+constexpr double kStickSpeed = 0.05;  // m/s: in the reference's stance, a slide goes on above this
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 
 }  // namespace
@@ -249,10 +252,12 @@ int VirtualLinkSet::update(const IDynamicsModel& model, const ContactList& candi
         for (const ContactCandidate& c : candidates)
           if (c.body == body && c.object == object && c.depth_m > kRollingSinkDepth) held.rolling = false;
       if (static_cast<int>(fresh.kind) > static_cast<int>(held.kind) && !held.rolling) {  // upgrade
+        fresh.reference_stance = held.reference_stance;
         held = fresh;
         ++created;
       }
     } else if (size_ < static_cast<int>(links_.size())) {
+      fresh.reference_stance = schedule_applied_ && (body >= 64 || ((stance_bodies_ >> body) & 1u) != 0);
       links_[static_cast<std::size_t>(size_++)] = fresh;
       ++created;
     } else {
@@ -280,6 +285,7 @@ void VirtualLinkSet::assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::Mat
       const double yaw = std::atan2(R_AC(1, 0) - R_AC(0, 1), R_AC(0, 0) + R_AC(1, 1));
       link.X_WA.linear() = link.X_WA.linear() * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     }
+    if (sliding_enabled_) decideSlide(link, X_WC.translation(), J_.topRows<3>() * v);
     const Eigen::Matrix3d R_AW = link.X_WA.linear().transpose();
     Vector6d error_A, drift_A;
     error_A.head<3>() = R_AW * (X_WC.translation() - link.X_WA.translation());
@@ -298,15 +304,54 @@ void VirtualLinkSet::assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::Mat
       // A pivot goes on while the body still turns against the twist friction gives.
       if (axis == 5 && link.yaw_slip != 0)
         link.yaw_slip = velocity * link.yaw_slip < -kPivotRestRate ? (velocity > 0.0 ? -1 : 1) : 0;
-      const double desired = -options_.stabilization_kd * velocity -
-                             options_.stabilization_kp * error_A[axis];
+      const bool slides = axis < 2 && !link.slide_A.isZero();
+      const double desired = slides ? 0.0
+                                    : -options_.stabilization_kd * velocity -
+                                          options_.stabilization_kp * error_A[axis];
       u_C[row] = desired - drift_A[axis];
       ++row;
     }
   }
 }
 
+bool VirtualLinkSet::anySliding() const {
+  for (int i = 0; i < size_; ++i)
+    if (!links_[static_cast<std::size_t>(i)].slide_A.isZero()) return true;
+  return false;
+}
+
+void VirtualLinkSet::decideSlide(VirtualLink& link, const Eigen::Vector3d& p_WC,
+                                 const Eigen::Vector3d& v_WC) const {
+  const Eigen::Matrix3d R_AW = link.X_WA.linear().transpose();
+  const Eigen::Vector2d v_t = (R_AW * v_WC).head<2>();
+  const double speed = v_t.norm();
+  const bool was_sliding = !link.slide_A.isZero();
+  const bool slides = speed > (link.reference_stance ? (was_sliding ? kStickSpeed : kInfinity) : kSlideSpeed);
+  link.slide_A = slides ? Eigen::Vector2d(v_t / speed) : Eigen::Vector2d::Zero();
+  // Sliding, or stopping: the anchor's origin is where the point is (no pull back).
+  if (slides || was_sliding) {
+    Eigen::Vector3d offset_A = R_AW * (p_WC - link.X_WA.translation());
+    offset_A.z() = 0.0;
+    link.X_WA.translation() += link.X_WA.linear() * offset_A;
+  }
+}
+
+int VirtualLinkSet::impactRows(const Eigen::Ref<const Eigen::MatrixXd>& H_C,
+                               Eigen::Ref<Eigen::MatrixXd> H_out) const {
+  int row = 0, kept = 0;
+  for (int i = 0; i < size_; ++i) {
+    const VirtualLink& link = links_[static_cast<std::size_t>(i)];
+    for (int k = 0; k < link.num_axes; ++k, ++row) {
+      if (k < 2 && !link.slide_A.isZero()) continue;
+      H_out.row(kept++) = H_C.row(row);
+    }
+  }
+  return kept;
+}
+
 void VirtualLinkSet::applyReferenceSchedule(std::uint64_t stance_bodies) {
+  schedule_applied_ = true;
+  stance_bodies_ = stance_bodies;
   auto inStance = [&](int body) { return body >= 64 || ((stance_bodies >> body) & 1u) != 0; };
   // A link the reference lifts is let go only once another held link carries the load
   // the reference puts on its stance bodies (or the reference has none: flight): the
@@ -384,6 +429,7 @@ int VirtualLinkSet::finishTick(const IDynamicsModel& model,
       out.support_min_A = link.support_min;
       out.support_max_A = link.support_max;
       out.pivot = link.yaw_slip;
+      out.slide_W = R_WA.leftCols<2>() * link.slide_A;
       out.cop_A.setZero();
       if (link.kind != ContactKind::kPoint && wrench_A[2] > 1e-9)
         out.cop_A = Eigen::Vector2d(-wrench_A[4] / wrench_A[2], wrench_A[3] / wrench_A[2]);

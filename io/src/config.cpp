@@ -227,6 +227,7 @@ class Parser {
             {"accel_weight", "force_weight", "torque_weight", "min_normal_force_n",
              "friction_facets", "cop_margin_m", "liftoff_clearance_m", "release_transition_s",
              "joint_limit_horizon_s", "joint_limit_max_decel", "enforce_torque_limits", "enforce_joint_limits", "yaw_slip",
+             "tangential_slip",
              "eps_abs", "max_iterations", "warm_start", "engine"},
             [&](const std::string& k, const Entry& v) {
               if (k == "accel_weight") q.accel_weight = number(v);
@@ -242,6 +243,7 @@ class Parser {
               if (k == "enforce_torque_limits") q.enforce_torque_limits = boolean(v);
               if (k == "enforce_joint_limits") q.enforce_joint_limits = boolean(v);
               if (k == "yaw_slip") q.yaw_slip = boolean(v);
+              if (k == "tangential_slip") q.tangential_slip = boolean(v);
               if (k == "eps_abs") q.solver.eps_abs = number(v);
               if (k == "max_iterations") q.solver.max_iterations = integer(v);
               if (k == "warm_start") q.solver.warm_start = boolean(v);

@@ -228,7 +228,8 @@ std::vector<std::string> FilteredMotionWriter::mainColumns(const ModelInfo& info
 std::vector<std::string> FilteredMotionWriter::contactColumns() {
   return {"time", "index", "body", "object", "kind", "px", "py", "pz", "nx", "ny", "nz", "fx",
           "fy", "fz", "mx", "my", "mz", "normal_force_n", "cop_x", "cop_y",
-          "support_x_min", "support_x_max", "support_y_min", "support_y_max", "pivot"};
+          "support_x_min", "support_x_max", "support_y_min", "support_y_max", "pivot",
+          "slide_x", "slide_y", "slide_z"};
 }
 
 void FilteredMotionWriter::append(const FilterOutput& out) { append(out, out.status); }
@@ -300,6 +301,7 @@ void FilteredMotionWriter::append(const FilterOutput& out, std::uint32_t row_sta
       appendValue(r, c.support_max_A.y());
       r += ',';
       detail::appendInteger(r, c.pivot);
+      appendValues(r, c.slide_W);
       r += '\n';
     }
     s.contacts_file.write(r);

@@ -35,7 +35,8 @@ py::dict countersDict(const FilterCounters& c) {
                   py::arg("reseeds") = c.reseeds, py::arg("invalid_references") = c.invalid_references,
                   py::arg("links_released") = c.links_released, py::arg("qp_solves") = c.qp_solves,
                   py::arg("qp_fallbacks") = c.qp_fallbacks, py::arg("qp_relaxed") = c.qp_relaxed,
-                  py::arg("qp_iterations") = c.qp_iterations, py::arg("pivot_ticks") = c.pivot_ticks);
+                  py::arg("qp_iterations") = c.qp_iterations, py::arg("pivot_ticks") = c.pivot_ticks,
+                  py::arg("slide_ticks") = c.slide_ticks);
 }
 
 // Growing row-major table of one quantity: rows × width doubles.
@@ -65,7 +66,7 @@ class Recorder {
  public:
   explicit Recorder(const ModelInfo& info)
       : q_{info.nq, {}}, v_{info.nv, {}}, vdot_{info.nv, {}}, tau_{info.nj, {}},
-        err_{info.nv, {}}, task_err_{6, {}}, p_{3, {}}, n_{3, {}}, wrench_{6, {}}, cop_{2, {}},
+        err_{info.nv, {}}, task_err_{6, {}}, p_{3, {}}, n_{3, {}}, slide_{3, {}}, wrench_{6, {}}, cop_{2, {}},
         support_min_{2, {}}, support_max_{2, {}} {}
 
   /// @param status, reseed_reason the row's: io::OfflineTick::row_status and row_reseed_reason
@@ -98,6 +99,7 @@ class Recorder {
       contact_pivot_.push_back(k.pivot);
       p_.add(k.p_WC.data());
       n_.add(k.n_W.data());
+      slide_.add(k.slide_W.data());
       wrench_.add(k.wrench_W.data());
       normal_force_.add(k.normal_force_n);
       cop_.add(k.cop_A.data());
@@ -134,6 +136,7 @@ class Recorder {
     c["pivot"] = toArray(contact_pivot_);
     c["p_WC"] = p_.array(false);
     c["n_W"] = n_.array(false);
+    c["slide_W"] = slide_.array(false);
     c["wrench_W"] = wrench_.array(false);
     c["normal_force_n"] = normal_force_.array(true);
     c["cop_A"] = cop_.array(false);
@@ -152,7 +155,7 @@ class Recorder {
   std::vector<std::int64_t> contact_row_;
   Column contact_time_;
   std::vector<int> contact_body_, contact_object_, contact_kind_, contact_pivot_;
-  Column p_, n_, wrench_, cop_, support_min_, support_max_;
+  Column p_, n_, slide_, wrench_, cop_, support_min_, support_max_;
   Column normal_force_;
 };
 
@@ -182,7 +185,8 @@ py::dict outputDict(const FilterOutput& out) {
                              py::arg("n_W") = Eigen::Vector3d(k.n_W),
                              py::arg("wrench_W") = Vector6d(k.wrench_W),
                              py::arg("normal_force_n") = k.normal_force_n,
-                             py::arg("cop_A") = Eigen::Vector2d(k.cop_A), py::arg("pivot") = k.pivot));
+                             py::arg("cop_A") = Eigen::Vector2d(k.cop_A), py::arg("pivot") = k.pivot,
+                             py::arg("slide_W") = Eigen::Vector3d(k.slide_W)));
   }
   d["contacts"] = contacts;
   d["counters"] = countersDict(out.counters);

@@ -48,6 +48,7 @@ def assert_same_table(tool_csv, python_csv_or_none, result, model):
     assert np.array_equal(c["wrench_W"], wrench)
     assert np.array_equal(c["normal_force_n"], cdata[:, cc["normal_force_n"]])
     assert np.array_equal(c["pivot"], cdata[:, cc["pivot"]])
+    assert np.array_equal(c["slide_W"], cdata[:, [cc[k] for k in ("slide_x", "slide_y", "slide_z")]])
     assert [result["body_names"][b] for b in c["body"]] == [r[cc["body"]] for r in crows]
     if python_csv_or_none is not None:
         h2, rows2 = read_csv(python_csv_or_none)

@@ -368,6 +368,149 @@ TEST(QpModePivot, ASpinningBoxSlowsAtFrictionsTwistThenHolds) {
   }
 }
 
+// The same box lying on the ground and moving at v₀ = 1 m/s along x, while its reference
+// flies ballistically above it (out of the reference's stance, needing no support: the
+// balance layer's schedule holds no body). With QpModeOptions::tangential_slip its face
+// slides: the friction is μ m g against the motion, so it slows at μ g = 7.85 m/s² (closed
+// form, whatever the reference asks) and stops after v₀ / (μ g) = 127 ms, then sticks (at
+// most one tick's friction past the stop). The new link's impact keeps the slide: the
+// impulse that would stop it (m v₀ = 3 N s) lies outside the friction cone of the normal one
+// (≈ 0). Without the option the link sticks at once: the impact stops the box.
+// (The flight keeps the box out of the schedule's stance; a reference gliding on the ground
+// with nothing else standing would hold it, BalanceLayer::heldStance.)
+class QpModeSlide : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(QpModeSlide, ABoxSlidingOnTheGroundSlowsAtMuGThenSticks) {
+  auto model = test::makeModel(GetParam(), urdf::loadUrdfFile(test::testModelPath("floating_box.urdf")),
+                               ModelOptions{});
+  const ModelInfo& info = model->info();
+  const double mu = model->environment().ground.friction;
+  const double mass = 3.0, v0 = 1.0, dt = 1e-3, decel = mu * kStandardGravity;
+  const double z_rest = [&] {
+    Eigen::VectorXd q(info.nq);
+    q << 0, 0, 0, 1, 0, 0, 0;
+    return standingBaseHeight(*model, q);
+  }();
+  auto reference = [&](double t) {  // thrown from 0.3 m above the ground, 1 m/s up
+    ReferenceFrame ref(info.nq, info.nv);
+    ref.time_s = t;
+    ref.q << v0 * t, 0, z_rest + 0.3 + t - 0.5 * kStandardGravity * t * t, 1, 0, 0, 0;
+    ref.v.setZero();
+    ref.v[0] = v0;
+    ref.v[2] = 1.0 - kStandardGravity * t;
+    ref.vdot.setZero();
+    ref.vdot[2] = -kStandardGravity;
+    return ref;
+  };
+  for (const bool slip : {true, false}) {
+    SCOPED_TRACE(slip ? "slides" : "sticks");
+    FilterOptions options = test::qpDefaults(dt);
+    options.qp.tangential_slip = slip;
+    // The reference lifts the box: its link's release ramp runs, here over 1 s (the QP
+    // relaxes the ramp's bound, which the box's weight exceeds; the slide's rows stay).
+    options.qp.release_transition_s = 1.0;
+    DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
+    filter.reset(reference(0.0));
+    Eigen::VectorXd q0(info.nq), v_start = Eigen::VectorXd::Zero(info.nv);
+    q0 << 0, 0, z_rest, 1, 0, 0, 0;
+    v_start[0] = v0;
+    for (int k = 0; k <= 250; ++k) ASSERT_TRUE(filter.previewFrame(reference(k * dt)));  // its flight ahead
+    ASSERT_TRUE(filter.setMeasuredState(q0, v_start));
+    double max_decel_error = 0.0, max_friction_gap = 0.0, stopped_at_s = -1.0, max_speed_after_stop = 0.0;
+    int sliding_ticks = 0, first_contact = -1;
+    for (int k = 0; k < 200; ++k) {
+      const FilterOutput& out = filter.step(reference((k + 1) * dt));
+      ASSERT_EQ(out.status & (kStatusQpFallback | kStatusReseeded | kStatusNonFinite), 0u) << "tick " << k;
+      if (first_contact < 0 && out.num_contacts == 0 && k < 3) continue;  // it touches down first
+      if (first_contact < 0) first_contact = k;
+      ASSERT_EQ(out.num_contacts, 1) << "tick " << k;
+      const ContactOutput& c = out.contacts[0];
+      if (!slip) {
+        EXPECT_TRUE(c.slide_W.isZero()) << "tick " << k;
+        if (k == first_contact) {
+          EXPECT_NEAR(out.v[0], 0.0, 1e-6) << "the impact of a sticking link stops the box";
+        }
+        continue;
+      }
+      if (stopped_at_s < 0.0 && !c.slide_W.isZero()) {
+        ++sliding_ticks;
+        EXPECT_NEAR(c.slide_W.x(), 1.0, 1e-9) << "tick " << k;
+        EXPECT_NEAR(c.normal_force_n, mass * kStandardGravity, 0.01 * mass * kStandardGravity) << "tick " << k;
+        max_friction_gap = std::max(max_friction_gap, (c.wrench_W.head<3>() + mu * c.normal_force_n * c.slide_W -
+                                                       c.normal_force_n * c.n_W).norm());
+        const double expected = mu * c.normal_force_n / mass;  // the normal force's share of the Baumgarte term
+        max_decel_error = std::max(max_decel_error, std::abs(out.vdot[0] + expected) / expected);
+        if (k == first_contact) {
+          EXPECT_NEAR(out.v[0], v0, 1e-9) << "the impact keeps the slide (out.v: after the impact)";
+        }
+      } else if (stopped_at_s < 0.0) {
+        stopped_at_s = (k + 1 - first_contact) * dt;
+      } else {
+        max_speed_after_stop = std::max(max_speed_after_stop, std::abs(out.v[0]));
+        EXPECT_TRUE(c.slide_W.isZero()) << "tick " << k << ": stopped, it sticks";
+      }
+    }
+    if (!slip) continue;
+    RecordProperty("slide_stopped_at_s", sci(stopped_at_s));
+    EXPECT_GT(sliding_ticks, 100);
+    EXPECT_LE(max_friction_gap, 1e-6) << "the tangential force is mu f_n against the slide";
+    EXPECT_LE(max_decel_error, 1e-6) << "the box slows at mu f_n / m (mu g)";
+    EXPECT_NEAR(stopped_at_s, v0 / decel, 2.5 * dt);
+    EXPECT_LE(max_speed_after_stop, decel * dt) << "no more than the last tick's overshoot";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, QpModeSlide, ::testing::ValuesIn(test::allBackends()));
+
+// Coulomb at the impulse level: the box lands 0.2 mm deep with (v_x, v_z), the reference
+// flying above it. The impulse that would stop it entirely is m (v_x, −v_z); within the
+// friction cone (|m v_x| ≤ μ m |v_z|) the link sticks and the impact stops the box, outside
+// it the link slides through the impact, which stops only the fall.
+TEST_P(QpModeSlide, ALandingSticksWhereItsImpulseLiesWithinTheFrictionCone) {
+  auto model = test::makeModel(GetParam(), urdf::loadUrdfFile(test::testModelPath("floating_box.urdf")),
+                               ModelOptions{});
+  const ModelInfo& info = model->info();
+  const double mu = model->environment().ground.friction;
+  Eigen::VectorXd q0(info.nq);
+  q0 << 0, 0, 0, 1, 0, 0, 0;
+  q0[2] = standingBaseHeight(*model, q0) - 2e-4;
+  ReferenceFrame ref(info.nq, info.nv);
+  ref.q = q0;
+  ref.q[2] += 0.3;
+  ref.vdot[2] = -kStandardGravity;  // in flight: the schedule holds no body
+  struct Landing {
+    double vx, vz;
+  };
+  for (const Landing landing : {Landing{0.5, -2.0}, Landing{1.0, -0.2}, Landing{1.5, -2.0}}) {
+    const bool sticks = landing.vx <= mu * -landing.vz;
+    SCOPED_TRACE("v_x " + std::to_string(landing.vx) + ", v_z " + std::to_string(landing.vz));
+    DynamicsFilter filter(*model, test::qpDefaults(1e-3), qp_engines::factory(QpSolverSettings{}.engine));
+    filter.reset(ref);
+    for (int k = 0; k <= 100; ++k) {  // its flight ahead: falling, it needs no support
+      ReferenceFrame ahead = ref;
+      ahead.time_s = k * 1e-3;
+      ahead.q[2] -= 0.5 * kStandardGravity * ahead.time_s * ahead.time_s;
+      ahead.v[2] = -kStandardGravity * ahead.time_s;
+      ASSERT_TRUE(filter.previewFrame(ahead));
+    }
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(info.nv);
+    v[0] = landing.vx;
+    v[2] = landing.vz;
+    ASSERT_TRUE(filter.setMeasuredState(q0, v));
+    const FilterOutput& out = filter.step(ref);
+    ASSERT_EQ(out.status & kStatusImpact, kStatusImpact);
+    ASSERT_EQ(out.num_contacts, 1);
+    EXPECT_NEAR(out.v[2], 0.0, 1e-9) << "the impact stops the fall";
+    if (sticks) {
+      EXPECT_TRUE(out.contacts[0].slide_W.isZero());
+      EXPECT_NEAR(out.v[0], 0.0, 1e-9) << "the impact stops the box";
+    } else {
+      EXPECT_NEAR(out.contacts[0].slide_W.x(), 1.0, 1e-9);
+      EXPECT_NEAR(out.v[0], landing.vx, 1e-9) << "the impact keeps the slide";
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------
 // A retargeted CMU clip: paper mode pulls on the ground, QP mode never does
 

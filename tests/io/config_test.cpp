@@ -59,6 +59,7 @@ void expectSameFilterOptions(const FilterOptions& a, const FilterOptions& b) {
   EXPECT_EQ(a.qp.enforce_torque_limits, b.qp.enforce_torque_limits);
   EXPECT_EQ(a.qp.enforce_joint_limits, b.qp.enforce_joint_limits);
   EXPECT_EQ(a.qp.yaw_slip, b.qp.yaw_slip);
+  EXPECT_EQ(a.qp.tangential_slip, b.qp.tangential_slip);
   EXPECT_EQ(a.qp.solver.eps_abs, b.qp.solver.eps_abs);
   EXPECT_EQ(a.qp.solver.max_iterations, b.qp.solver.max_iterations);
   EXPECT_EQ(a.qp.solver.warm_start, b.qp.solver.warm_start);
@@ -136,7 +137,7 @@ TEST(ConfigFile, ShippedDefaultFileListsEveryKeyOnceWithAComment) {
       {"torque_weight", 1}, {"min_normal_force_n", 1}, {"friction_facets", 1},
       {"cop_margin_m", 1}, {"liftoff_clearance_m", 1}, {"release_transition_s", 1},
       {"joint_limit_horizon_s", 1}, {"joint_limit_max_decel", 1},
-      {"enforce_torque_limits", 1}, {"enforce_joint_limits", 1}, {"yaw_slip", 1}, {"eps_abs", 1},
+      {"enforce_torque_limits", 1}, {"enforce_joint_limits", 1}, {"yaw_slip", 1}, {"tangential_slip", 1}, {"eps_abs", 1},
       {"max_iterations", 1}, {"warm_start", 1}, {"engine", 1}, {"divergence", 1}, {"max_base_error_m", 1},
       {"max_base_rotation_rad", 1}, {"max_joint_error_rad", 1}, {"max_base_residual_rel", 1},
       {"max_degraded_ticks", 1}, {"balance", 1}, {"com_weight", 1}, {"dcm_gain", 1},
@@ -320,6 +321,7 @@ TEST(ConfigFile, ModeQpAndItsSectionParse) {
       "  enforce_torque_limits: false\n"
       "  enforce_joint_limits: false\n"
       "  yaw_slip: false\n"
+      "  tangential_slip: false\n"
       "  eps_abs: 1e-9\n"
       "  max_iterations: 50\n"
       "  warm_start: false\n"
@@ -340,6 +342,7 @@ TEST(ConfigFile, ModeQpAndItsSectionParse) {
   expected.qp.enforce_torque_limits = false;
   expected.qp.enforce_joint_limits = false;
   expected.qp.yaw_slip = false;
+  expected.qp.tangential_slip = false;
   expected.qp.solver.eps_abs = 1e-9;
   expected.qp.solver.max_iterations = 50;
   expected.qp.solver.warm_start = false;

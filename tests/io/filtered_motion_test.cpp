@@ -130,6 +130,7 @@ FilterOutput sampleOutput(const ModelInfo& info, std::mt19937& rng, double time_
     k.normal_force_n = u(rng) * 500;
     k.cop_A = Eigen::Vector2d(u(rng) * 0.1, u(rng) * 0.05);
     k.pivot = c == 0 ? -1 : (c == 1 ? 1 : 0);
+    if (c == 2) k.slide_W = Eigen::Vector3d(u(rng), u(rng), 0.0).normalized();
   }
   return out;
 }
@@ -230,7 +231,8 @@ TEST(FilteredMotionWriter, ContactsFileHasOneRowPerValidContact) {
                                                 "pz", "nx", "ny", "nz", "fx", "fy", "fz", "mx", "my",
                                                 "mz", "normal_force_n", "cop_x", "cop_y",
                                                 "support_x_min", "support_x_max",
-                                                "support_y_min", "support_y_max", "pivot"}));
+                                                "support_y_min", "support_y_max", "pivot",
+                                                "slide_x", "slide_y", "slide_z"}));
   ASSERT_EQ(t.rows.size(), 5u);
   const std::pair<std::size_t, int> which[5] = {{0, 0}, {0, 1}, {2, 0}, {2, 1}, {2, 2}};
   const char* kinds[3] = {"face", "edge", "point"};
@@ -253,6 +255,9 @@ TEST(FilteredMotionWriter, ContactsFileHasOneRowPerValidContact) {
     EXPECT_EQ(t.num(r, "cop_x"), c.cop_A.x());
     EXPECT_EQ(t.num(r, "cop_y"), c.cop_A.y());
     EXPECT_EQ(t.text(r, "pivot"), std::to_string(c.pivot));
+    EXPECT_EQ(t.num(r, "slide_x"), c.slide_W.x());
+    EXPECT_EQ(t.num(r, "slide_y"), c.slide_W.y());
+    EXPECT_EQ(t.num(r, "slide_z"), c.slide_W.z());
   }
   EXPECT_EQ(t.text(0, "object"), "-1");  // the ground
 }

@@ -18,6 +18,8 @@
 ///                                                  support point's distance from the origin)
 ///              a pivoting edge or face (VirtualLink::yaw_slip = σ ≠ 0; QpModeOptions::yaw_slip)
 ///              drops its yaw row for m_z = σ μ r f_z (Coulomb's twist while it turns)
+///              a sliding link (VirtualLink::slide_A = ŝ ≠ 0; QpModeOptions::tangential_slip)
+///              drops its tangential rows and its pyramid for f_t = −μ f_z ŝ
 ///              |τ_J| ≤ τ_max                      (URDF effort)
 ///              v̇_J within the bounds that keep q and q̇ in their limits over the tick
 ///
@@ -176,7 +178,12 @@ class ContactQp {
     int torsion_row = 0;         // first of the two torsion rows in C
     int yaw_slip = 0;            // pivoting: m_z = yaw_slip · μ r f_z, the yaw row dropped
     bool pivot_from_rest = false;  // ... and the yaw acceleration opposes the twist
+    int facet_row = 0;           // first friction-pyramid row in C
+    Eigen::Vector2d slide = Eigen::Vector2d::Zero();  // sliding: f_t = −μ f_z ŝ (VirtualLink::slide_A)
   };
+  // Makes link @p i slide along lb.slide: its tangential rows become Coulomb's kinetic
+  // friction, and its friction pyramid gives way.
+  void slide(DenseQp& qp, int i);
   // Makes link @p i pivot in qp (see the file comment); rows of H_C, u_C for the sign test.
   void pivot(DenseQp& qp, int i, int sign, bool from_rest, const Eigen::Ref<const Eigen::MatrixXd>& H_C,
              const Eigen::Ref<const Eigen::VectorXd>& u_C);

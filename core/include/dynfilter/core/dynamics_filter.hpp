@@ -80,6 +80,9 @@ class DynamicsFilter {
   bool referenceValid(const ReferenceFrame& reference) const;
   void desiredAcceleration(const ReferenceFrame& reference);
   void reseed(const ReferenceFrame& reference);
+  // A new link's impact: sliding links whose stopping impulse lies within their friction
+  // cone stick (VirtualLinkSet::stopSlide); @p impulse is scratch (N_C).
+  void stickWithinFriction(const Eigen::Ref<const Eigen::MatrixXd>& H_C, Eigen::Ref<Eigen::VectorXd> impulse);
   // Eq. 21–23 (with the task rows of Eq. 16 when configured); returns status bits.
   std::uint32_t solvePaper(Eigen::Ref<Eigen::MatrixXd> H_C, Eigen::Ref<Eigen::VectorXd> u_C,
                            Eigen::Ref<Eigen::VectorXd> tau_C);
@@ -107,9 +110,9 @@ class DynamicsFilter {
   FilterOutput out_;
 
   // Workspace (sized once).
-  Eigen::MatrixXd A_, H_C_;
+  Eigen::MatrixXd A_, H_C_, H_impact_;  // H_impact_: the rows a plastic impact stops
   Eigen::VectorXd b_, u_C_, tau_C_, vdot_desired_, vdot_solved_, tau_J_solved_;
-  Eigen::VectorXd kp_, kd_, dq_, scratch_;
+  Eigen::VectorXd kp_, kd_, dq_, scratch_, v_impact_;
   // Task point P at the reference state: position, orientation, velocity, acceleration.
   Eigen::Vector3d task_p_ref_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d task_R_ref_ = Eigen::Matrix3d::Identity();

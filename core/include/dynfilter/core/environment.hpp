@@ -38,6 +38,12 @@ struct Environment {
   GroundPlane ground;
   std::vector<EnvironmentBox> boxes;
 
+  /// Coulomb μ of a contact object: box @p object, else (the ground, kGroundObject) the ground's.
+  double friction(int object) const {
+    return object >= 0 && object < static_cast<int>(boxes.size()) ? boxes[static_cast<std::size_t>(object)].friction
+                                                                   : ground.friction;
+  }
+
   /// Throws std::invalid_argument naming the entry on a non-unit or non-finite normal,
   /// a negative friction or a non-positive box size.
   void validate() const;

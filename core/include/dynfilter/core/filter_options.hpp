@@ -109,6 +109,15 @@ struct QpModeOptions {
   /// than friction gives (|m_z| ≤ μ r f_z): the yaw row gives way and the twist sits at
   /// the bound, opposing the pivot (Coulomb), until the pivot stops.
   bool yaw_slip = true;
+  /// Contacts slide (Coulomb): a link of a body out of the reference's stance (the balance
+  /// layer's schedule, BalanceLayer::heldStance: lifted, or gliding while another body
+  /// stands) whose contact point moves along the surface faster than 1 cm/s slides instead
+  /// of sticking. Its two tangential rows give way for kinetic
+  /// friction f_t = −μ f_n ŝ, ŝ the point's direction of motion, and its anchor follows the
+  /// point. In the reference's stance a slide goes on until the point is slower than 5 cm/s.
+  /// A new link's impact stops a sliding link only where that impulse lies within its
+  /// friction cone. Needs the balance layer (its schedule); off: links stick (the paper).
+  bool tangential_slip = true;
   QpSolverSettings solver;
 };
 

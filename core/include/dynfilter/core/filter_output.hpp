@@ -65,6 +65,7 @@ struct FilterCounters {
   std::uint64_t qp_fallbacks = 0;         ///< QP mode: ticks that fell back to paper mode
   std::uint64_t qp_relaxed = 0;           ///< QP mode: ticks answered by a relaxation
   std::uint64_t pivot_ticks = 0;          ///< QP mode: ticks with a sole pivoting (ContactOutput::pivot)
+  std::uint64_t slide_ticks = 0;          ///< QP mode: ticks with a contact sliding (ContactOutput::slide_W)
   std::uint64_t qp_iterations = 0;        ///< QP mode: total solver iterations
 };
 
@@ -88,6 +89,10 @@ struct ContactOutput {
   /// Edges, faces (QP mode): 0 while the link holds its yaw; ±1 while it pivots about n_W,
   /// the sign σ of its twist wrench·n = σ μ r f_n at friction's bound (QpModeOptions::yaw_slip).
   int pivot = 0;
+  /// QP mode (QpModeOptions::tangential_slip): the unit direction in which the contact point
+  /// slides along the surface, world; zero while the link sticks. The tangential force is then
+  /// −μ · normal_force_n along it.
+  Eigen::Vector3d slide_W = Eigen::Vector3d::Zero();
 };
 
 struct FilterOutput {

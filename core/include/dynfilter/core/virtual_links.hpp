@@ -66,6 +66,11 @@ struct VirtualLink {
   /// ±1: the sign of the twist m_z = ±μ r f_z friction gives while the body turns the
   /// other way. Set by the solve; kept while the pivot goes on; the anchor's yaw follows.
   int yaw_slip = 0;
+  /// QP mode (QpModeOptions::tangential_slip): the unit direction, in A's xy, in which the
+  /// contact point slides along the surface; zero while the link sticks. While it slides
+  /// the anchor's origin follows the point, and the tangential rows give way to Coulomb's
+  /// kinetic friction against ŝ.
+  Eigen::Vector2d slide_A = Eigen::Vector2d::Zero();
 };
 
 /// Indices of the constrained axes of a link kind, in A's [x, y, z, rx, ry, rz].
@@ -114,10 +119,28 @@ class VirtualLinkSet {
   /// Total constrained rows N_C.
   int numRows() const;
 
+  /// Lets links slide along the surface (QpModeOptions::tangential_slip; assemble()
+  /// decides per link and tick).
+  void enableSliding(bool enabled) { sliding_enabled_ = enabled; }
+
+  /// Whether a held link slides (set by the last assemble()).
+  bool anySliding() const;
+  /// Link @p i sticks from now on (its anchor stays where assemble() last put it).
+  void stopSlide(int i) { links_[static_cast<std::size_t>(i)].slide_A.setZero(); }
+
+  /// Copies the rows of @p H_C that a plastic impact stops into the top of @p H_out (a
+  /// sliding link's tangential rows are not among them) and returns their number.
+  int impactRows(const Eigen::Ref<const Eigen::MatrixXd>& H_C, Eigen::Ref<Eigen::MatrixXd> H_out) const;
+
   /// Fills the rows of Eq. 9 with Baumgarte stabilisation:
   /// H_C (N_C × nv) and u_C = θ̈_C,desired − Ḣ_C v (N_C), with θ̈_C,desired = −kd θ̇_C − kp e.
   /// A pivoting link (yaw_slip ≠ 0) first moves its anchor's yaw to its body's, and keeps
   /// pivoting only while its body still turns against the twist (else it sticks again).
+  /// With sliding enabled, a link of a body out of the reference's stance slides while its
+  /// contact point moves along the surface faster than 1 cm/s; in the reference's stance a
+  /// slide goes on until the point is slower than 5 cm/s, and none starts. A sliding link's
+  /// tangential rows carry no stabilisation (θ̈_C,desired = 0) and its anchor follows the
+  /// point.
   /// @param H_C, u_C at least numRows() rows; only the top numRows() are written.
   void assemble(const IDynamicsModel& model, Eigen::Ref<Eigen::MatrixXd> H_C,
                 Eigen::Ref<Eigen::VectorXd> u_C);
@@ -131,9 +154,10 @@ class VirtualLinkSet {
 
   /// The reference's contact schedule (QP mode with the balance layer), bit b set when
   /// the reference has body b in stance (b < 64; higher bodies count as in stance):
-  /// held links of bodies out of stance start their release ramp; links in stance are
-  /// not released for a low force alone; a released pair whose body the reference holds
-  /// out of stance does not re-engage on penetration. Replaces startLiftoffReleases.
+  /// held links of bodies out of stance start their release ramp (and may slide, see
+  /// assemble()); links in stance are not released for a low force alone; a released pair
+  /// whose body the reference holds out of stance does not re-engage on penetration.
+  /// Replaces startLiftoffReleases.
   void applyReferenceSchedule(std::uint64_t stance_bodies);
 
   /// Upper bound on link @p i's normal force this tick: +∞, or during a release ramp the
@@ -160,6 +184,9 @@ class VirtualLinkSet {
   };
   int findLink(int body, int object) const;
   bool isReleased(int body, int object) const;
+  // Sets link.slide_A from the contact point p_WC, its velocity v_WC and the schedule, and
+  // moves a sliding (or stopping) link's anchor origin to the point.
+  void decideSlide(VirtualLink& link, const Eigen::Vector3d& p_WC, const Eigen::Vector3d& v_WC) const;
   bool makeLink(const IDynamicsModel& model, const ContactList& candidates, int body, int object,
                 VirtualLink& link) const;
 
@@ -169,6 +196,9 @@ class VirtualLinkSet {
   std::vector<ReleasedPair> released_;
   int num_released_ = 0;
   std::vector<char> grouped_;  // per candidate, scratch
+  bool sliding_enabled_ = false;
+  bool schedule_applied_ = false;   // applyReferenceSchedule has run: stance_bodies_ holds
+  std::uint64_t stance_bodies_ = 0;
   Matrix6Xd J_;                // 6 × nv scratch
 };
 
