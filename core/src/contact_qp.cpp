@@ -458,9 +458,9 @@ void ContactQp::slide(DenseQp& qp, int i) {
     qp.b[r] = 0.0;
   }
   // The friction pyramid gives way (the force lies on the cone). Nothing keeps the slide
-  // from reversing within the tick (a row that did cost the walk 64 more relaxed ticks):
-  // it overshoots its stop by at most the tick's friction, and the next tick sticks or
-  // slides back against it.
+  // from reversing within the tick (such a row has no answer where nothing pushes the body
+  // at its stop): it overshoots the stop by at most one tick's friction, and the next tick
+  // sticks or slides back against it.
   const int K = options_.friction_facets;
   for (int k = 0; k < K; ++k) {
     qp.C.row(lb.facet_row + k).setZero();
