@@ -140,6 +140,7 @@ COLUMNS = [
     ("frames_torsion_violation", "torsion", "{}"),
     ("frames_torque_over_limit", "torque", "{}"),
     ("frames_pivoting", "pivoting", "{}"),
+    ("frames_sliding", "sliding", "{}"),
     ("max_base_residual_rel_bw", "Eq. 12 base / weight", "{:.1e}"),
 ]
 

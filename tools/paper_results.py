@@ -306,6 +306,9 @@ def limit_metrics(t, contacts_csv, model, mu):
         m["frames_friction_violation"] = int(len(np.unique(c["time"][ft > mu * np.maximum(fn, 0) + tol])))
         # Soles pivoting at friction's twist (QP mode, qp.yaw_slip): physical, counted.
         m["frames_pivoting"] = int(len(np.unique(c["time"][c["pivot"] != 0]))) if "pivot" in c else 0
+        # Contacts sliding with kinetic friction (QP mode, qp.tangential_slip): physical, counted.
+        sliding = (np.abs(c["slide_x"]) + np.abs(c["slide_y"]) + np.abs(c["slide_z"]) > 0) if "slide_x" in c else None
+        m["frames_sliding"] = int(len(np.unique(c["time"][sliding]))) if sliding is not None else 0
         if "support_x_min" in c:
             flat = c["kind"] != "point"
             loaded = c["normal_force_n"] > 1e-9
@@ -325,6 +328,7 @@ def limit_metrics(t, contacts_csv, model, mu):
         m.setdefault("frames_torsion_violation", 0)
     else:
         m["frames_friction_violation"] = m["frames_cop_outside"] = m["frames_torsion_violation"] = m["frames_pivoting"] = 0
+        m["frames_sliding"] = 0
     over = np.zeros(len(t["time"]), dtype=bool)
     for j, limit in model.effort.items():
         if f"{j}.tau" in t:
@@ -660,6 +664,7 @@ MODE_ROWS = [
     ("max_base_jump_mm", "largest per-frame base jump (mm)", "{:.1f}"),
     ("frames_qp_relaxed", "frames answered by a QP relaxation", "{:d}"),
     ("frames_pivoting", "frames with a sole pivoting at friction's twist", "{:d}"),
+    ("frames_sliding", "frames with a contact sliding (kinetic friction)", "{:d}"),
     ("frames_qp_fallback", "frames that fell back to the paper solve", "{:d}"),
     ("mean_tick_us", "mean time per tick (µs)", "{:.1f}"),
     ("mean_solve_us", "mean solve time per tick (µs)", "{:.1f}"),
