@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <new>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 #include <gtest/gtest.h>
@@ -18,6 +19,7 @@
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/dynamics_simulator.hpp"
 #include "dynfilter/core/ground_contacts.hpp"
+#include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
@@ -223,6 +225,67 @@ TEST(Allocation, QpModeRelaxedTicksAllocateNothingInTheCoreWithDaqp) {
   EXPECT_TRUE(relaxations & 1u) << "the joint-limit bounds were dropped (relaxation bits " << relaxations << ")";
   EXPECT_EQ(seen & kStatusQpFallback, 0u);
   expectNoCoreAllocations(static_cast<long>(frames.size()) - 20);
+}
+
+// Contacts that slide (QpModeOptions::tangential_slip): a box lands at 1 m/s along the
+// ground while its reference flies above it (out of the schedule's stance). The landing
+// slides through its impact (the impact's friction-cone test solves one impact more), then
+// slows on kinetic friction until it sticks. After 20 ticks in the air, the landing, the
+// slide and the stop are counted.
+TEST(Allocation, SlidingContactsAllocateNothingInTheCore) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
+  auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::testModelPath("floating_box.urdf")),
+                              ModelOptions{});
+  MeasuredModel model(*dart);
+  const ModelInfo& info = model.info();
+  const double dt = 1e-3;
+  const int ticks = 200, warm_up = 20;
+  Eigen::VectorXd q_touch(info.nq), v_land = Eigen::VectorXd::Zero(info.nv);
+  q_touch << 0, 0, 0, 1, 0, 0, 0;
+  q_touch[2] = standingBaseHeight(*dart, q_touch) - 2e-4;
+  v_land[0] = 1.0;
+  v_land[2] = -0.2;
+  std::vector<ReferenceFrame> flying;  // thrown from 0.3 m above the ground, 1 m/s up
+  for (int k = 0; k <= warm_up + ticks + 60; ++k) {
+    ReferenceFrame ref(info.nq, info.nv);
+    const double t = k * dt;
+    ref.time_s = t;
+    ref.q = q_touch;
+    ref.q[0] = t;
+    ref.q[2] += 0.3 + t - 0.5 * kStandardGravity * t * t;
+    ref.v[0] = 1.0;
+    ref.v[2] = 1.0 - kStandardGravity * t;
+    ref.vdot[2] = -kStandardGravity;
+    flying.push_back(ref);
+  }
+  FilterOptions options = test::qpDefaults(dt);
+  options.qp.release_transition_s = 1.0;  // the box's link outlives the slide (see QpModeSlide)
+  ASSERT_TRUE(options.qp.tangential_slip);
+  DynamicsFilter filter(model, options, qp_engines::factory("daqp"));
+  filter.reset(flying[0]);
+  int previewed = 0, slides = 0, impacts = 0;
+  Eigen::VectorXd q_high = q_touch;
+  q_high[2] += 0.05;
+  for (int k = 0; k < warm_up; ++k) {  // in the air: the solver's and the look-ahead's first runs
+    ASSERT_TRUE(filter.setMeasuredState(q_high, v_land));
+    while (previewed < k + 60) filter.previewFrame(flying[static_cast<std::size_t>(previewed++)]);
+    ASSERT_EQ(filter.step(flying[static_cast<std::size_t>(k)]).num_contacts, 0);
+  }
+  ASSERT_TRUE(filter.setMeasuredState(q_touch, v_land));
+  resetCounts();
+  g_counting = true;
+  for (int k = warm_up; k < warm_up + ticks; ++k) {
+    while (previewed < k + 60) filter.previewFrame(flying[static_cast<std::size_t>(previewed++)]);
+    const FilterOutput& out = filter.step(flying[static_cast<std::size_t>(k)]);
+    impacts += (out.status & kStatusImpact) ? 1 : 0;
+    slides += out.num_contacts > 0 && !out.contacts[0].slide_W.isZero() ? 1 : 0;
+  }
+  g_counting = false;
+  EXPECT_GT(slides, 100) << "the box slid";
+  EXPECT_EQ(impacts, 1) << "it landed";
+  EXPECT_EQ(filter.output().num_contacts, 1);
+  EXPECT_TRUE(filter.output().contacts[0].slide_W.isZero()) << "and stopped";
+  expectNoCoreAllocations(ticks);
 }
 
 TEST(Allocation, HullGroundContactsAllocateNothing) {
