@@ -307,8 +307,8 @@ def limit_metrics(t, contacts_csv, model, mu):
         # Soles pivoting at friction's twist (QP mode, qp.yaw_slip): physical, counted.
         m["frames_pivoting"] = int(len(np.unique(c["time"][c["pivot"] != 0]))) if "pivot" in c else 0
         # Contacts sliding with kinetic friction (QP mode, qp.tangential_slip): physical, counted.
-        sliding = (np.abs(c["slide_x"]) + np.abs(c["slide_y"]) + np.abs(c["slide_z"]) > 0) if "slide_x" in c else None
-        m["frames_sliding"] = int(len(np.unique(c["time"][sliding]))) if sliding is not None else 0
+        m["frames_sliding"] = (int(len(np.unique(c["time"][(c["slide_x"] != 0) | (c["slide_y"] != 0) | (c["slide_z"] != 0)])))
+                               if "slide_x" in c else 0)
         if "support_x_min" in c:
             flat = c["kind"] != "point"
             loaded = c["normal_force_n"] > 1e-9

@@ -319,16 +319,14 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
                                           options_.contacts.release_force_n, options_.dt_s, 0.0);
   }
   out_.counters.links_released += static_cast<std::uint64_t>(links_before - links_.size());
+  bool pivots = false, slides = false;
   for (int i = 0; i < out_.num_contacts; ++i) {
-    if (out_.contacts[static_cast<std::size_t>(i)].pivot == 0) continue;
-    ++out_.counters.pivot_ticks;
-    break;
+    const ContactOutput& c = out_.contacts[static_cast<std::size_t>(i)];
+    pivots = pivots || c.pivot != 0;
+    slides = slides || !c.slide_W.isZero();
   }
-  for (int i = 0; i < out_.num_contacts; ++i) {
-    if (out_.contacts[static_cast<std::size_t>(i)].slide_W.isZero()) continue;
-    ++out_.counters.slide_ticks;
-    break;
-  }
+  out_.counters.pivot_ticks += pivots ? 1 : 0;
+  out_.counters.slide_ticks += slides ? 1 : 0;
   out_.time_s = ref.time_s;
   out_.q = q_;
   out_.v = v_;
