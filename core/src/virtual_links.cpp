@@ -14,6 +14,7 @@ constexpr double kRollingSinkDepth = 0.002;    // m: a rolling sole sinking deep
 constexpr double kSlideSpeed = 0.01;  // m/s: out of the reference's stance, a point this fast slides
 constexpr double kStickSpeed = 0.05;  // m/s: in the reference's stance, a slide goes on above this
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kApproachSpeed = 0.01;  // m/s: a released pair moving into the surface this fast re-engages
 
 
 }  // namespace
@@ -221,12 +222,19 @@ int VirtualLinkSet::update(const IDynamicsModel& model, const ContactList& candi
   for (int r = 0; r < num_released_; ++r) {
     const ReleasedPair pair = released_[static_cast<std::size_t>(r)];
     double depth = -1.0;
-    for (const ContactCandidate& c : candidates)
-      if (c.body == pair.body && c.object == pair.object) depth = std::max(depth, c.depth_m);
-    // A pair the reference lifts stays free unless it sinks deeper than kLiftedPairMaxDepth:
-    // no body passes through the floor.
+    bool approaching = false;
+    for (const ContactCandidate& c : candidates) {
+      if (c.body != pair.body || c.object != pair.object) continue;
+      depth = std::max(depth, c.depth_m);
+      const Vector6d V_WB = model.bodyVelocity(c.body);
+      const Eigen::Vector3d v_WC =
+          V_WB.head<3>() + V_WB.tail<3>().cross(c.p_WC - model.bodyPose(c.body).translation());
+      approaching = approaching || c.n_W.dot(v_WC) < -kApproachSpeed;
+    }
+    // A pair the reference lifts stays free while it does not move into the surface, unless it
+    // sinks deeper than kLiftedPairMaxDepth: no body passes through the floor.
     if (depth >= 0.0 && (depth < options_.reengage_depth_m ||
-                         (pair.reference_lifted && depth < kLiftedPairMaxDepth)))
+                         (pair.reference_lifted && !approaching && depth < kLiftedPairMaxDepth)))
       released_[static_cast<std::size_t>(kept++)] = pair;
   }
   num_released_ = kept;
@@ -253,11 +261,13 @@ int VirtualLinkSet::update(const IDynamicsModel& model, const ContactList& candi
           if (c.body == body && c.object == object && c.depth_m > kRollingSinkDepth) held.rolling = false;
       if (static_cast<int>(fresh.kind) > static_cast<int>(held.kind) && !held.rolling) {  // upgrade
         fresh.reference_stance = held.reference_stance;
+        fresh.stance_seen = held.stance_seen;
         held = fresh;
         ++created;
       }
     } else if (size_ < static_cast<int>(links_.size())) {
       fresh.reference_stance = schedule_applied_ && (body >= 64 || ((stance_bodies_ >> body) & 1u) != 0);
+      fresh.stance_seen = fresh.reference_stance;
       links_[static_cast<std::size_t>(size_++)] = fresh;
       ++created;
     } else {
@@ -361,7 +371,8 @@ void VirtualLinkSet::applyReferenceSchedule(std::uint64_t stance_bodies) {
   for (int i = 0; i < size_; ++i) {
     VirtualLink& link = links_[static_cast<std::size_t>(i)];
     link.reference_stance = inStance(link.body);
-    if (link.releasing || link.reference_stance || !other_support) continue;
+    link.stance_seen = link.stance_seen || link.reference_stance;
+    if (link.releasing || !link.stance_seen || link.reference_stance || !other_support) continue;
     link.releasing = true;
     link.release_elapsed_s = 0.0;
     link.release_start_force_n = link.normal_force_n;

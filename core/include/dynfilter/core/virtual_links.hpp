@@ -56,6 +56,10 @@ struct VirtualLink {
   /// The reference's contact schedule says this body is in stance (QP mode with the
   /// balance layer): a low normal force alone does not release the link then.
   bool reference_stance = false;
+  /// The reference has had this body in stance while the link was held: only such a link
+  /// unloads by the release ramp when the reference lifts it; a touch out of stance (a
+  /// scuff) holds what it must and lets go when its force falls to the minimum.
+  bool stance_seen = false;
   double release_elapsed_s = 0.0;
   double release_start_force_n = 0.0;
   /// The sole rolls with the reference (heel-off): no upgrade to a face while set.
