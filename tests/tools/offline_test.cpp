@@ -85,7 +85,9 @@ TEST(Offline, BodyPositionsForPicturesMatchTheFilteredBase) {
 
 TEST(Offline, AReferenceMadeOnLevelGroundFollowsTheSlopeGiven) {
   // The squat drifting 0.3 m/s along x, on a 10° slope descending along x: every reference
-  // frame's base sinks with the plane under it (tan 10° per metre along x).
+  // frame's base sinks with the plane under it (tan 10° per metre along x), within the few
+  // millimetres it gives way so that the legs reach the feet carried onto the plane
+  // (io::followTerrain, whose own test checks the feet to 1e-5 m).
   std::ifstream in(kSquat);
   const std::string moving = testing::TempDir() + "/moving_squat.csv";
   std::ofstream file(moving);
@@ -119,7 +121,7 @@ TEST(Offline, AReferenceMadeOnLevelGroundFollowsTheSlopeGiven) {
     ASSERT_EQ(ref[1], "reference");
     const double dx = std::stod(ref[static_cast<std::size_t>(x)]) - x0;
     EXPECT_NEAR(std::stod(ref[static_cast<std::size_t>(z)]),
-                std::stod(reference[r + 2][3]) - std::tan(10.0 * M_PI / 180.0) * dx, 1e-6)
+                std::stod(reference[r + 2][3]) - std::tan(10.0 * M_PI / 180.0) * dx, 0.005)
         << "frame " << r;
   }
   EXPECT_GT(std::stod(rows[rows.size() - 2][static_cast<std::size_t>(x)]) - x0, 1.0) << "it moved";

@@ -30,6 +30,7 @@
 #include "dynfilter/io/filtered_motion.hpp"
 #include "dynfilter/io/offline_run.hpp"
 #include "dynfilter/io/reference_motion.hpp"
+#include "dynfilter/io/terrain_follow.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "run_summary.hpp"
 
@@ -164,16 +165,15 @@ int main(int argc, char** argv) {
           slope, heading, coordinates->info().floating_base ? std::tan(slope) * along : 0.0,
           config.environment.ground.friction);
       if (coordinates->info().floating_base) {
-        // The motion (made on level ground) follows the terrain: each frame's base rises or
-        // sinks with the plane under it, so its feet stand on the slope.
-        const GroundPlane& g = config.environment.ground;
-        const auto height = [&](const Eigen::VectorXd& q) {
-          return (g.offset_m - g.n_W.x() * q[0] - g.n_W.y() * q[1]) / g.n_W.z();
-        };
-        const double z0 = height(q0);
-        for (ReferenceFrame& f : motion.frames) f.q[2] += height(f.q) - z0;
-        if (motion.frames.size() >= 2)
-          io::estimateDerivatives(motion.frames, true, io::ReferenceReadOptions{}.smoothing_window, true, true);
+        // The motion (made on level ground) follows the terrain: base and feet rise or sink
+        // with the plane beneath them, the soles turn with it.
+        const io::TerrainFollowReport terrain =
+            io::followTerrain(motion, *coordinates, config.environment.ground);
+        std::fprintf(stderr,
+                     "slope: %d feet carried onto the plane, joints changed by %.3f rad RMS, base moved "
+                     "by up to %.1f mm, feet within %.1f mm and %.3f rad of their targets\n",
+                     terrain.feet, terrain.joint_change_rms_rad, 1e3 * terrain.base_change_max_m,
+                     1e3 * terrain.foot_position_error_max_m, terrain.foot_orientation_error_max_rad);
       }
     }
     if (!std::isnan(friction)) config.environment.ground.friction = friction;
