@@ -462,6 +462,63 @@ TEST_P(QpModeSlide, ABoxSlidingOnTheGroundSlowsAtMuGThenSticks) {
 
 INSTANTIATE_TEST_SUITE_P(Backends, QpModeSlide, ::testing::ValuesIn(test::allBackends()));
 
+// The box resting on the ground with its reference, which is then thrown up (3 m/s) while
+// the box, which nothing can lift, stays: the schedule lifts the box, its link unloads over the release ramp and goes, and the
+// box, which nothing can lift, settles under gravity. A released pair the reference lifts
+// re-engages as soon as it moves into the ground, not 5 mm deep; the link it makes there, on a
+// body the reference has never had in stance, carries the box (m g) instead of ramping down
+// from 0 N and letting go again.
+TEST_P(QpModeSlide, ABoxTheReferenceLiftsIsCaughtWhereItRestsNotFiveMillimetresDeep) {
+  auto model = test::makeModel(GetParam(), urdf::loadUrdfFile(test::testModelPath("floating_box.urdf")),
+                               ModelOptions{});
+  const ModelInfo& info = model->info();
+  const double mass = 3.0, dt = 1e-3;
+  const double z_rest = [&] {
+    Eigen::VectorXd q(info.nq);
+    q << 0, 0, 0, 1, 0, 0, 0;
+    return standingBaseHeight(*model, q);
+  }();
+  const double rest_s = 0.05;  // in the reference's stance first: the link carries the box
+  auto reference = [&](double t) {
+    ReferenceFrame ref(info.nq, info.nv);
+    ref.time_s = t;
+    const double s = std::max(0.0, t - rest_s);  // then thrown up at 3 m/s
+    ref.q << 0, 0, z_rest + 3.0 * s - 0.5 * kStandardGravity * s * s, 1, 0, 0, 0;
+    ref.v.setZero();
+    ref.vdot.setZero();
+    if (t > rest_s) {
+      ref.v[2] = 3.0 - kStandardGravity * s;
+      ref.vdot[2] = -kStandardGravity;
+    }
+    return ref;
+  };
+  FilterOptions options = test::qpDefaults(dt);
+  DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
+  filter.reset(reference(0.0));
+  for (int k = 0; k <= 500; ++k) ASSERT_TRUE(filter.previewFrame(reference(k * dt)));
+  Eigen::VectorXd q0(info.nq);
+  q0 << 0, 0, z_rest - 1e-4, 1, 0, 0, 0;  // resting, 0.1 mm in: its face link forms
+  ASSERT_TRUE(filter.setMeasuredState(q0, Eigen::VectorXd::Zero(info.nv)));
+  double max_depth = 0.0, max_force_error = 0.0;
+  std::uint64_t released = 0;
+  int held_ticks = 0;
+  for (int k = 0; k < 300; ++k) {
+    const FilterOutput& out = filter.step(reference((k + 1) * dt));
+    ASSERT_EQ(out.status & (kStatusQpFallback | kStatusReseeded | kStatusNonFinite), 0u) << "tick " << k;
+    max_depth = std::max(max_depth, out.max_penetration_m);
+    released = out.counters.links_released;
+    if (k < 150) continue;  // the first link's ramp (release_transition_s) is over by 0.1 s
+    if (out.num_contacts == 1) ++held_ticks;
+    if (out.num_contacts == 1)
+      max_force_error = std::max(max_force_error, std::abs(out.contacts[0].normal_force_n - mass * kStandardGravity));
+  }
+  RecordProperty("max_depth_m", sci(max_depth));
+  EXPECT_GE(released, 1u) << "the reference's lift let the first link go";
+  EXPECT_LE(max_depth, 1e-3) << "caught as it moves into the ground (5 mm before)";
+  EXPECT_EQ(held_ticks, 150) << "the new link holds";
+  EXPECT_LE(max_force_error, 0.01 * mass * kStandardGravity) << "and carries the box";
+}
+
 // Coulomb at the impulse level: the box lands 0.2 mm deep with (v_x, v_z), the reference
 // flying above it. The impulse that would stop it entirely is m (v_x, −v_z); within the
 // friction cone (|m v_x| ≤ μ m |v_z|) the link sticks and the impact stops the box, outside
