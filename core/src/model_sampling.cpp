@@ -1,5 +1,6 @@
 #include "dynfilter/core/model_sampling.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -46,6 +47,24 @@ double standingContacts(IDynamicsModel& model, Eigen::VectorXd q, ContactList& c
   model.setState(q, Eigen::VectorXd::Zero(model.nv()));
   model.detectContacts(contacts);
   return height;
+}
+
+std::vector<StandingSole> standingSoles(const ContactList& contacts) {
+  std::vector<StandingSole> soles;
+  for (const ContactCandidate& c : contacts) {
+    auto it = std::find_if(soles.begin(), soles.end(), [&](const StandingSole& s) { return s.body == c.body; });
+    if (it == soles.end()) {
+      soles.push_back(StandingSole{c.body, {}, Eigen::Vector3d::Zero()});
+      it = soles.end() - 1;
+    }
+    it->points_B.push_back(c.p_BC);
+  }
+  for (StandingSole& s : soles) {
+    for (const Eigen::Vector3d& p : s.points_B) s.centre_B += p;
+    s.centre_B /= static_cast<double>(s.points_B.size());
+  }
+  std::sort(soles.begin(), soles.end(), [](const StandingSole& a, const StandingSole& b) { return a.body < b.body; });
+  return soles;
 }
 
 }  // namespace dynfilter

@@ -72,9 +72,9 @@ Setup findFeet(IDynamicsModel& model, const ReferenceCleanupOptions& options) {
       throw std::invalid_argument("cleanup.feet: \"" + name + "\" is not a link of model " + info.name);
     bodies.push_back(b);
   }
+  const std::vector<StandingSole> soles = standingSoles(contacts);
   if (bodies.empty())
-    for (const ContactCandidate& c : contacts)
-      if (std::find(bodies.begin(), bodies.end(), c.body) == bodies.end()) bodies.push_back(c.body);
+    for (const StandingSole& sole : soles) bodies.push_back(sole.body);
   std::sort(bodies.begin(), bodies.end());
   if (bodies.empty())
     throw std::invalid_argument("cleanupReference: model " + info.name +
@@ -83,13 +83,12 @@ Setup findFeet(IDynamicsModel& model, const ReferenceCleanupOptions& options) {
     Foot f;
     f.link = info.body_names[static_cast<std::size_t>(b)];
     f.body = b;
-    for (const ContactCandidate& c : contacts)
-      if (c.body == b) f.sole.push_back(c.p_BC);
-    if (f.sole.empty())
+    const auto sole = std::find_if(soles.begin(), soles.end(), [b](const StandingSole& s) { return s.body == b; });
+    if (sole == soles.end())
       throw std::invalid_argument("cleanup.feet: link \"" + f.link +
                                   "\" does not touch the ground at the neutral stance");
-    for (const Eigen::Vector3d& p : f.sole) f.centre += p;
-    f.centre /= static_cast<double>(f.sole.size());
+    f.sole = sole->points_B;
+    f.centre = sole->centre_B;
     f.R_flat = model.bodyPose(b).linear();
     setup.feet.push_back(f);
   }

@@ -19,11 +19,6 @@ constexpr double kBaseWeight = 1.0;  // the base gives way too where a leg canno
 constexpr double kLegWeight = 0.05;
 constexpr double kContinuityWeight = 1.0;
 
-struct Foot {
-  int body = -1;
-  Eigen::Vector3d centre_B = Eigen::Vector3d::Zero();  // the sole's centre on the body
-};
-
 }  // namespace
 
 TerrainFollowReport followTerrain(ReferenceMotion& motion, IDynamicsModel& model, const GroundPlane& plane) {
@@ -35,21 +30,8 @@ TerrainFollowReport followTerrain(ReferenceMotion& motion, IDynamicsModel& model
 
   ContactList contacts(256);
   standingContacts(model, info.neutralConfiguration(), contacts);
-  std::vector<Foot> feet;
-  for (const ContactCandidate& c : contacts) {
-    auto it = std::find_if(feet.begin(), feet.end(), [&](const Foot& f) { return f.body == c.body; });
-    if (it == feet.end()) {
-      feet.push_back(Foot{c.body, Eigen::Vector3d::Zero()});
-      it = feet.end() - 1;
-    }
-    it->centre_B += c.p_BC;
-  }
+  const std::vector<StandingSole> feet = standingSoles(contacts);
   if (feet.empty()) throw std::invalid_argument("followTerrain: model " + info.name + " stands on no body");
-  for (Foot& f : feet) {
-    int count = 0;
-    for (const ContactCandidate& c : contacts) count += c.body == f.body ? 1 : 0;
-    f.centre_B /= static_cast<double>(count);
-  }
   report.feet = static_cast<int>(feet.size());
 
   const auto height = [&](const Eigen::Vector3d& p) {
@@ -62,7 +44,7 @@ TerrainFollowReport followTerrain(ReferenceMotion& motion, IDynamicsModel& model
   const KinematicTree tree = kinematicTreeOf(model);
   Eigen::VectorXd weights = Eigen::VectorXd::Ones(info.nv);
   weights.head<6>().setConstant(kBaseWeight);
-  for (const Foot& f : feet)
+  for (const StandingSole& f : feet)
     for (const int j : tree.jointsBetween(tree.base_body, f.body)) weights[info.velocityIndex(j)] = kLegWeight;
   std::vector<IkTarget> targets(feet.size());
   for (std::size_t i = 0; i < feet.size(); ++i) {

@@ -3,6 +3,7 @@
 /// States for checks and tools: random valid states, and where a model stands.
 
 #include <random>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -28,5 +29,15 @@ double standingBaseHeight(IDynamicsModel& model, Eigen::VectorXd q);
 /// that touches (the soles). Fills @p contacts (at most its capacity), leaves the model in
 /// that state with zero velocity and returns the standing base height (m). Floating base only.
 double standingContacts(IDynamicsModel& model, Eigen::VectorXd q, ContactList& contacts);
+
+/// A body a model stands on: its collision points (body frame, m) and their centroid.
+struct StandingSole {
+  int body = -1;
+  std::vector<Eigen::Vector3d> points_B;
+  Eigen::Vector3d centre_B = Eigen::Vector3d::Zero();
+};
+
+/// @p contacts (e.g. of standingContacts) grouped by body, in ascending body order.
+std::vector<StandingSole> standingSoles(const ContactList& contacts);
 
 }  // namespace dynfilter
