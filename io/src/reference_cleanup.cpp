@@ -17,6 +17,7 @@
 #include "dynfilter/core/polygon.hpp"
 #include "dynfilter/io/input_error.hpp"
 #include "dynfilter/io/pose_ik.hpp"
+#include "foot_ik_weights.hpp"
 #include "dynfilter/io/reference_balance.hpp"
 
 namespace dynfilter::io {
@@ -25,10 +26,6 @@ namespace {
 // A sole point this close to the ground touches it (skate measure), m.
 constexpr double kTouchHeight = 0.005;
 
-// IK weights of the foot targets: position (1/m) and orientation (1/rad); far above the
-// posture weights so that a stance foot stays within a fraction of a millimetre.
-constexpr double kFootPositionWeight = 1e3;
-constexpr double kFootOrientationWeight = 10.0;
 // A stance run whose reference sole is tilted from its flat pose by more than this on
 // average stands on its toes or heel (kneeling, tiptoe): it is held where and as the
 // reference holds it, not flattened.

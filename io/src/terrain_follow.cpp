@@ -9,12 +9,11 @@
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/io/pose_ik.hpp"
+#include "foot_ik_weights.hpp"
 
 namespace dynfilter::io {
 namespace {
 
-constexpr double kFootPositionWeight = 1e3;  // 1/m, as the clean-up's
-constexpr double kFootOrientationWeight = 10.0;
 constexpr double kBaseWeight = 1.0;  // the base gives way too where a leg cannot reach
 constexpr double kLegWeight = 0.05;
 constexpr double kContinuityWeight = 1.0;
