@@ -78,7 +78,7 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
     Eigen::VectorXd q = info.neutralConfiguration();
     const Eigen::VectorXd v = Eigen::VectorXd::Zero(info.nv);
     const GroundPlane& ground = model.environment().ground;
-    q[2] += (ground.offset_m - ground.n_W.x() * q[0] - ground.n_W.y() * q[1]) / ground.n_W.z() - q[2];
+    q[2] += ground.heightAt(q[0], q[1]) - q[2];
     model.setState(q, v);
     model.detectContacts(candidates_);
     double deepest = 0.0;
@@ -104,7 +104,7 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
     const Eigen::VectorXd q_saved = model.q(), v_saved = model.v();
     Eigen::VectorXd q = info.neutralConfiguration();
     const GroundPlane& ground = model.environment().ground;
-    q[2] = (ground.offset_m - ground.n_W.x() * q[0] - ground.n_W.y() * q[1]) / ground.n_W.z();
+    q[2] = ground.heightAt(q[0], q[1]);
     model.setState(q, Eigen::VectorXd::Zero(info.nv));
     model.detectContacts(candidates_);
     for (std::size_t s = 0; s < soles_.size(); ++s) {
@@ -228,7 +228,7 @@ double BalanceLayer::groundHeight(const Eigen::Vector2d& p) const {
   if (environment_ == nullptr || !environment_->has_ground) return 0.0;
   const GroundPlane& g = environment_->ground;
   if (std::abs(g.n_W.z()) < 0.1) return 0.0;
-  return (g.offset_m - g.n_W.x() * p.x() - g.n_W.y() * p.y()) / g.n_W.z();
+  return g.heightAt(p.x(), p.y());
 }
 
 void BalanceLayer::makeSample(IDynamicsModel& model, const ReferenceFrame& frame, Sample& out) {
@@ -251,9 +251,7 @@ void BalanceLayer::makeSample(IDynamicsModel& model, const ReferenceFrame& frame
   out.stance = 0;
   for (const ContactCandidate& c : candidates_) {
     if (n >= static_cast<int>(points_.size())) break;
-    const Vector6d V = model.bodyVelocity(c.body);
-    const Eigen::Vector3d r = c.p_WC - model.bodyPose(c.body).translation();
-    const Eigen::Vector3d v_point = V.head<3>() + V.tail<3>().cross(r);
+    const Eigen::Vector3d v_point = model.pointVelocity(c.body, c.p_WC);
     // Slow along the surface: a reference foot sinking into the ground is still in stance.
     if ((v_point - c.n_W * c.n_W.dot(v_point)).norm() > options_.stance_speed_mps) continue;
     points_[static_cast<std::size_t>(n++)] = c.p_WC.head<2>();

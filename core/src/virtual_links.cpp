@@ -226,10 +226,8 @@ int VirtualLinkSet::update(const IDynamicsModel& model, const ContactList& candi
     for (const ContactCandidate& c : candidates) {
       if (c.body != pair.body || c.object != pair.object) continue;
       depth = std::max(depth, c.depth_m);
-      const Vector6d V_WB = model.bodyVelocity(c.body);
-      const Eigen::Vector3d v_WC =
-          V_WB.head<3>() + V_WB.tail<3>().cross(c.p_WC - model.bodyPose(c.body).translation());
-      approaching = approaching || c.n_W.dot(v_WC) < -kApproachSpeed;
+      if (pair.reference_lifted && !approaching)  // only a lifted pair asks
+        approaching = c.n_W.dot(model.pointVelocity(c.body, c.p_WC)) < -kApproachSpeed;
     }
     // A pair the reference lifts stays free while it does not move into the surface, unless it
     // sinks deeper than kLiftedPairMaxDepth: no body passes through the floor.
@@ -266,7 +264,7 @@ int VirtualLinkSet::update(const IDynamicsModel& model, const ContactList& candi
         ++created;
       }
     } else if (size_ < static_cast<int>(links_.size())) {
-      fresh.reference_stance = schedule_applied_ && (body >= 64 || ((stance_bodies_ >> body) & 1u) != 0);
+      fresh.reference_stance = inReferenceStance(body);
       fresh.stance_seen = fresh.reference_stance;
       links_[static_cast<std::size_t>(size_++)] = fresh;
       ++created;
@@ -362,15 +360,15 @@ int VirtualLinkSet::impactRows(const Eigen::Ref<const Eigen::MatrixXd>& H_C,
 void VirtualLinkSet::applyReferenceSchedule(std::uint64_t stance_bodies) {
   schedule_applied_ = true;
   stance_bodies_ = stance_bodies;
-  auto inStance = [&](int body) { return body >= 64 || ((stance_bodies >> body) & 1u) != 0; };
   // A link the reference lifts is let go only once another held link carries the load
   // the reference puts on its stance bodies (or the reference has none: flight): the
   // figure does not lose all support while its next foot is still in the air.
   bool other_support = stance_bodies == 0;
-  for (int i = 0; i < size_; ++i) other_support = other_support || inStance(links_[static_cast<std::size_t>(i)].body);
+  for (int i = 0; i < size_; ++i)
+    other_support = other_support || inReferenceStance(links_[static_cast<std::size_t>(i)].body);
   for (int i = 0; i < size_; ++i) {
     VirtualLink& link = links_[static_cast<std::size_t>(i)];
-    link.reference_stance = inStance(link.body);
+    link.reference_stance = inReferenceStance(link.body);
     link.stance_seen = link.stance_seen || link.reference_stance;
     if (link.releasing || !link.stance_seen || link.reference_stance || !other_support) continue;
     link.releasing = true;
@@ -379,7 +377,7 @@ void VirtualLinkSet::applyReferenceSchedule(std::uint64_t stance_bodies) {
   }
   for (int r = 0; r < num_released_; ++r) {
     ReleasedPair& pair = released_[static_cast<std::size_t>(r)];
-    pair.reference_lifted = !inStance(pair.body);
+    pair.reference_lifted = !inReferenceStance(pair.body);
   }
 }
 

@@ -33,9 +33,7 @@ TerrainFollowReport followTerrain(ReferenceMotion& motion, IDynamicsModel& model
   if (feet.empty()) throw std::invalid_argument("followTerrain: model " + info.name + " stands on no body");
   report.feet = static_cast<int>(feet.size());
 
-  const auto height = [&](const Eigen::Vector3d& p) {
-    return (plane.offset_m - plane.n_W.x() * p.x() - plane.n_W.y() * p.y()) / plane.n_W.z();
-  };
+  const auto height = [&](const Eigen::Vector3d& p) { return plane.heightAt(p.x(), p.y()); };
   const double h0 = height(motion.frames.front().q.head<3>());
   const Eigen::Matrix3d R_tilt =
       Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), plane.n_W.normalized()).toRotationMatrix();

@@ -98,9 +98,7 @@ TEST(TerrainFollow, FeetKeepTheirHeightAboveTheSlopeAndTurnWithIt) {
     // Through the first base position's ground point (h = 0 there), as dynfilter-offline's.
     const double along = std::cos(heading) * b0.x() + std::sin(heading) * b0.y();
     const GroundPlane plane = GroundPlane::sloped(slope, heading, std::tan(slope) * along);
-    const auto h = [&](const Eigen::Vector3d& p) {
-      return (plane.offset_m - plane.n_W.x() * p.x() - plane.n_W.y() * p.y()) / plane.n_W.z();
-    };
+    const auto h = [&](const Eigen::Vector3d& p) { return plane.heightAt(p.x(), p.y()); };
     ASSERT_NEAR(h(b0), 0.0, 1e-12);
     const Eigen::Matrix3d R_tilt =
         Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), plane.n_W).toRotationMatrix();

@@ -65,6 +65,11 @@ class IDynamicsModel {
   Eigen::Vector3d pointPosition(int body, const Eigen::Vector3d& p_BP) const {
     return bodyPose(body) * p_BP;
   }
+  /// World velocity (m/s) of the point of body @p body that is at @p p_WP (world) now.
+  Eigen::Vector3d pointVelocity(int body, const Eigen::Vector3d& p_WP) const {
+    const Vector6d V_WB = bodyVelocity(body);
+    return V_WB.head<3>() + V_WB.tail<3>().cross(p_WP - bodyPose(body).translation());
+  }
   /// Jacobian of the point P fixed on @p body: rows [ṗ_WP; ω_WB] = J · v.
   /// @param J_out 6 × nv
   virtual void pointJacobian(int body, const Eigen::Vector3d& p_BP,

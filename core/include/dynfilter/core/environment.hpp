@@ -23,6 +23,8 @@ struct GroundPlane {
                             double friction = 0.8);
   /// Signed height of @p p_W above the surface along the normal (m).
   double signedDistance(const Eigen::Vector3d& p_W) const { return n_W.dot(p_W) - offset_m; }
+  /// World z of the surface above (@p x, @p y) (m). Not for a vertical plane (n_W.z() = 0).
+  double heightAt(double x, double y) const { return (offset_m - n_W.x() * x - n_W.y() * y) / n_W.z(); }
 };
 
 /// A static box obstacle (a step, a table, a platform).

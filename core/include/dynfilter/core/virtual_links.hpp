@@ -188,6 +188,10 @@ class VirtualLinkSet {
   };
   int findLink(int body, int object) const;
   bool isReleased(int body, int object) const;
+  // The last applied schedule has @p body in stance (bodies ≥ 64 always; none before one is applied).
+  bool inReferenceStance(int body) const {
+    return schedule_applied_ && (body >= 64 || ((stance_bodies_ >> body) & 1u) != 0);
+  }
   // Sets link.slide_A from the contact point p_WC, its velocity v_WC and the schedule, and
   // moves a sliding (or stopping) link's anchor origin to the point.
   void decideSlide(VirtualLink& link, const Eigen::Vector3d& p_WC, const Eigen::Vector3d& v_WC) const;
