@@ -3,7 +3,7 @@
 
     build/venv/bin/python tools/perturbed_ab.py --builds /work/main/build,build \
         [--configs ,c.yaml] [--only walk,jump] [--seeds 24] [--noise 1e-6] [--mode qp] \
-        [--out build/perturbed_ab]
+        [--reference-per-build] [--out build/perturbed_ab]
 
 The counts of tools/balance_matrix.py (relaxed ticks, re-seeding ticks) and the joint RMS
 are chaotic in the reference: Gaussian noise of 1e-6 (rad, m) on every joint and base
@@ -90,6 +90,9 @@ def main():
     ap.add_argument("--noise", type=float, default=1e-6)
     ap.add_argument("--mode", default="qp", choices=["qp", "paper"])
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--reference-per-build", action="store_true",
+                    help="each build retargets the clips itself (compares clean-up changes too); "
+                    "default: build 0's reference for both")
     ap.add_argument("--out", default=str(pr.ROOT / "build" / "perturbed_ab"))
     args = ap.parse_args()
     builds = [Path(b).resolve() for b in args.builds.split(",")]
@@ -103,11 +106,17 @@ def main():
     names = [n.strip() for n in args.only.split(",") if n.strip()]
     jobs = []
     for name in names:
-        ref = reference_of(name, builds[0], out)
+        per_build = (0, 1) if args.reference_per_build else (0,)
+        refs = {}
+        for b in per_build:
+            (out / f"b{b}").mkdir(exist_ok=True)
+            refs[b] = reference_of(name, builds[b], out / f"b{b}")
         for seed in range(args.seeds):
-            ref_s = out / f"{name}_s{seed}_reference.csv"
-            perturb(ref, ref_s, seed, args.noise)
-            jobs += [(name, seed, b, builds[b], configs[b], ref_s, args, out) for b in (0, 1)]
+            for b in (0, 1):
+                src = refs[b if args.reference_per_build else 0]
+                ref_s = out / f"{name}_s{seed}_b{b}_reference.csv"
+                perturb(src, ref_s, seed, args.noise)
+                jobs.append((name, seed, b, builds[b], configs[b], ref_s, args, out))
     res = {}
     with cf.ProcessPoolExecutor(max_workers=args.jobs) as pool:
         for name, seed, b, relaxed, reseeds, legs in pool.map(run, jobs):
