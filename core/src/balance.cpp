@@ -586,7 +586,9 @@ void BalanceLayer::buildTasks(const IDynamicsModel& model, const Eigen::Ref<cons
     const Eigen::Vector3d omega = J_.bottomRows<3>() * v;
     tasks.T.block(rows, 0, 3, tasks.T.cols()).setZero();
     tasks.T.block(rows, 0, 3, nv) = J_.bottomRows<3>();
+    // While rolling it also turns as fast as the reference's sole (a push-off is not braked).
     tasks.r.segment<3>(rows) = options_.sole_kp * error - options_.sole_kd * omega - drift.tail<3>();
+    if (held->rolling) tasks.r.segment<3>(rows) += sole_refs_[s].omegadot + options_.sole_kd * sole_refs_[s].omega;
     tasks.w.segment<3>(rows).setConstant(options_.sole_weight);
     rows += 3;
   }

@@ -264,7 +264,7 @@ std::vector<Eigen::Vector2d> feasibleComPath(const std::vector<PendulumSample>& 
     shiftStill(m - 2, m - 1);
     QpSolverSettings settings;
     settings.eps_abs = 1e-7;
-    settings.max_iterations = 1000;
+    settings.max_iterations = 200;  // a window ProxQP cannot converge stops here, not after 1000 (38 s)
     settings.warm_start = false;
     std::unique_ptr<IQpSolver> solver = qp_solver(nx, n_eq, n_in, settings);
     Eigen::VectorXd sol(nx);

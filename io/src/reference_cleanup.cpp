@@ -31,6 +31,10 @@ constexpr double kTouchHeight = 0.005;
 // reference holds it, not flattened.
 constexpr double kMaxFlatStanceTiltRad = 0.35;
 
+// A flat stance sole rolls over its toe or heel edge only where the reference's sole
+// pitches by more than this from the run's level (rad): heel-off, not the capture's jitter.
+constexpr double kRollDeadbandRad = 0.05;
+
 // A foot: its body and sole points (body frame) from the neutral stance.
 struct Foot {
   std::string link;
@@ -388,6 +392,35 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
     };
     std::vector<Eigen::Isometry3d> pose(runs.size());
     std::vector<Correction> at_start(runs.size()), at_end(runs.size());
+    // Heel-off: at the end of a flat run the reference's sole pitches away from the run's
+    // own level (its median pitch) over its toe edge (or its heel edge). From the last frame
+    // within kRollDeadbandRad of that level on, the flat pose rolls over that edge by the
+    // pitch beyond the deadband; the edge stays where it is.
+    const Eigen::Vector3d fwd_B = f.R_flat.transpose() * Eigen::Vector3d::UnitX();
+    double toe = -std::numeric_limits<double>::infinity(), heel = std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector3d& p : f.sole) {
+      toe = std::max(toe, fwd_B.dot(p - f.centre));
+      heel = std::min(heel, fwd_B.dot(p - f.centre));
+    }
+    auto pitchOf = [&](int k) {  // > 0: toes down, heel up
+      const Eigen::Vector3d x = ref[static_cast<std::size_t>(k)].linear() * fwd_B;
+      return std::atan2(-x.dot(normal), (x - x.dot(normal) * normal).norm());
+    };
+    std::vector<int> roll_from(runs.size());
+    std::vector<double> level(runs.size(), 0.0);
+    auto stanceGoal = [&](std::size_t run, int k) {
+      const Eigen::Isometry3d& P = pose[run];
+      if (k < roll_from[run]) return P;
+      const double d = pitchOf(k) - level[run];
+      const double excess = std::copysign(std::max(0.0, std::fabs(d) - kRollDeadbandRad), d);
+      Eigen::Vector3d fwd_W = P.linear() * fwd_B;
+      fwd_W = (fwd_W - fwd_W.dot(normal) * normal).normalized();
+      const Eigen::Vector3d edge_B = f.centre + (excess > 0 ? toe : heel) * fwd_B;
+      Eigen::Isometry3d X = P;
+      X.linear() = Eigen::AngleAxisd(excess, normal.cross(fwd_W)).toRotationMatrix() * P.linear();
+      X.translation() = P * edge_B - X.linear() * edge_B;
+      return X;
+    };
     for (std::size_t r = 0; r < runs.size(); ++r) {
       const auto [b, e] = runs[r];
       Eigen::Vector3d c = Eigen::Vector3d::Zero();
@@ -417,8 +450,18 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
         const Eigen::Matrix3d R_heading = Eigen::Quaterniond::FromTwoVectors(x0, xs.normalized()).toRotationMatrix();
         pose[r] = flatPose(f, R_heading * f.R_flat, c);
       }
-      at_start[r] = correction(pose[r], ref[static_cast<std::size_t>(b)]);
-      at_end[r] = correction(pose[r], ref[static_cast<std::size_t>(e - 1)]);
+      roll_from[r] = e;
+      if (tilt <= kMaxFlatStanceTiltRad) {
+        std::vector<double> pitch(static_cast<std::size_t>(e - b));
+        for (int k = b; k < e; ++k) pitch[static_cast<std::size_t>(k - b)] = pitchOf(k);
+        std::vector<double> sorted = pitch;
+        std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+        level[r] = sorted[sorted.size() / 2];
+        while (roll_from[r] > b && std::fabs(pitch[static_cast<std::size_t>(roll_from[r] - 1 - b)] - level[r]) > kRollDeadbandRad)
+          --roll_from[r];
+      }
+      at_start[r] = correction(stanceGoal(r, b), ref[static_cast<std::size_t>(b)]);
+      at_end[r] = correction(stanceGoal(r, e - 1), ref[static_cast<std::size_t>(e - 1)]);
     }
     // In stance the stance pose; in a swing the reference's foot corrected by what ended
     // the last stance blended smoothly into what starts the next (over the whole swing, so
@@ -429,7 +472,7 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
       while (r < runs.size() && runs[r].second <= k) ++r;  // the first run not yet over
       Eigen::Isometry3d X = ref[static_cast<std::size_t>(k)];
       if (r < runs.size() && runs[r].first <= k) {
-        X = pose[r];
+        X = stanceGoal(r, k);
       } else if (!runs.empty()) {
         Correction c;
         if (r == 0) {

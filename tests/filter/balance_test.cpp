@@ -413,5 +413,49 @@ TEST(Balance, ASoleKeepsItsFaceWhenTheReferenceDoesNotLiftItOrRollingIsOff) {
   EXPECT_EQ(off.after.kind, ContactKind::kFace);
 }
 
+// A rolling sole turns with the reference's: the figure stands on its right toe edge with
+// its heel 0.2 rad up, the ankle turning at 3 rad/s and speeding up by 20 rad/s², state and
+// reference alike. The sole's rows are then met by the reference's own acceleration: they
+// do not brake the push-off (without the reference's rate they ask for kd·ω less).
+TEST(Balance, ARollingSolesRowsAreMetByTheReferencesOwnRoll) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const ModelInfo& info = model->info();
+  BalanceLayer layer(*model, BalanceOptions{});
+  ReferenceFrame reference(info.nq, info.nv);
+  reference.q = info.neutralConfiguration();
+  reference.q[info.configurationIndex(info.findJoint("l_knee"))] = 1.0;  // left foot up
+  const int ankle = info.findJoint("r_ankle_pitch");
+  reference.q[info.configurationIndex(ankle)] = 0.2;  // heel up
+  reference.q[2] = standingBaseHeight(*model, reference.q) - 0.001;
+  reference.v.setZero();
+  reference.v[info.velocityIndex(ankle)] = 3.0;
+  reference.vdot.setZero();
+  reference.vdot[info.velocityIndex(ankle)] = 20.0;
+  layer.prepare(*model, reference, 1e-3);
+  VirtualLinkSet links = linksAt(*model, reference.q);
+  const int foot = info.findBody("r_foot");
+  int held = -1;
+  for (int i = 0; i < links.size(); ++i)
+    if (links[i].body == foot) held = i;
+  ASSERT_GE(held, 0) << "the toe edge holds a link";
+  links.setRolling(held, true);
+  model->setState(reference.q, reference.v);
+  Eigen::MatrixXd A(info.nv, info.nv);
+  model->massMatrix(A);
+  QpObjectiveTasks tasks(layer.maxTaskRows(), info.nv + 6 * ContactOptions{}.max_links);
+  layer.buildTasks(*model, A, reference.q, reference.v, links, tasks);
+  int row = 6;  // after the centroidal rows: per sole 3 rows when held, 6 in the air
+  for (const int body : layer.soleBodies()) {
+    bool holds = false;
+    for (int i = 0; i < links.size(); ++i) holds = holds || links[i].body == body;
+    if (body == foot) break;
+    row += holds ? 3 : 6;
+  }
+  ASSERT_LE(row + 3, tasks.rows);
+  const Eigen::Vector3d achieved = tasks.T.block(row, 0, 3, info.nv) * reference.vdot;
+  EXPECT_LT((achieved - tasks.r.segment<3>(row)).norm(), 1e-6)
+      << achieved.transpose() << " against " << tasks.r.segment<3>(row).transpose();
+}
+
 }  // namespace
 }  // namespace dynfilter

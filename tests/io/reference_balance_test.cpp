@@ -213,6 +213,69 @@ TEST(ReferenceCleanup, ASoleStandingOnItsEdgeKeepsItsTiltAFlatOneIsLevelled) {
   }
 }
 
+// Heel-off: a figure stands flat for 0.6 s, then both ankles turn by ±0.3 rad over 0.3 s
+// with the base raised so that the lowest sole edge stays on the ground (on its toes, or on
+// its heels). The clean-up keeps the run's flat pose, and from where the sole leaves the
+// run's level rolls it over that edge: at the end the sole is pitched by the reference's
+// 0.3 rad less the 0.05 rad dead band, and the edge it stands on has not moved. (Laid flat,
+// as a constant tilt is, it would end level.)
+TEST(ReferenceCleanup, AStanceSoleRollsOverTheEdgeTheReferenceLiftsItsHeelOrToesOver) {
+  auto model = test::makeMiniHumanoid();
+  const ModelInfo& info = model->info();
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
+  const int sole = info.findBody("sole_l");
+  model->setState(info.neutralConfiguration(), v0);
+  const Eigen::Vector3d fwd_B = model->bodyPose(sole).linear().transpose() * Eigen::Vector3d::UnitX();
+  auto pitchOf = [&](const Eigen::VectorXd& q) {
+    model->setState(q, v0);
+    const Eigen::Vector3d x = model->bodyPose(sole).linear() * fwd_B;
+    return std::atan2(-x.z(), x.head<2>().norm());
+  };
+  // The mean of the sole's points within 5 mm of the ground (world) at q.
+  auto lowestPoint = [&](const Eigen::VectorXd& q) {
+    ContactList contacts(64);
+    Eigen::VectorXd lowered = q;
+    lowered[2] -= 0.005;
+    model->setState(lowered, v0);
+    model->detectContacts(contacts);
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int n = 0;
+    for (const ContactCandidate& c : contacts)
+      if (c.body == sole) {
+        sum += c.p_WC;
+        ++n;
+      }
+    return Eigen::Vector3d(sum / std::max(n, 1) + Eigen::Vector3d(0.0, 0.0, 0.005));
+  };
+  for (const double turn : {0.3, -0.3}) {
+    SCOPED_TRACE(turn);
+    ReferenceMotion motion = stillMotion(info, info.neutralConfiguration(), 90);
+    for (int k = 0; k < 90; ++k) {
+      Eigen::VectorXd& q = motion.frames[static_cast<std::size_t>(k)].q;
+      const double s = k < 60 ? 0.0 : (k - 60) / 29.0;
+      for (const char* ankle : {"talo_l_y", "talo_r_y"})
+        q[info.configurationIndex(info.findJoint(ankle))] = turn * s * s * (3.0 - 2.0 * s);
+      q[2] = standingBaseHeight(*model, q);
+    }
+    const double reference_pitch = pitchOf(motion.frames[89].q);
+    ASSERT_GT(std::fabs(reference_pitch), 0.25);
+    ReferenceCleanupOptions options;
+    options.lowpass_hz = 0.0;
+    const CleanupResult r = cleanupReference(motion, *model, options, proxqp::factory());
+    for (const auto& row : r.schedule.stance) ASSERT_EQ(row, (std::vector<char>{1, 1}));
+    EXPECT_NEAR(pitchOf(r.motion.frames[30].q), 0.0, 0.01);
+    EXPECT_NEAR(pitchOf(r.motion.frames[89].q), std::copysign(std::fabs(reference_pitch) - 0.05, turn), 0.01);
+    // The edge it stands on, at the end, is where that edge was while the sole was flat.
+    const Eigen::Vector3d edge_end = lowestPoint(r.motion.frames[89].q);
+    model->setState(r.motion.frames[89].q, v0);
+    const Eigen::Isometry3d X_end = model->bodyPose(sole);
+    model->setState(r.motion.frames[30].q, v0);
+    const Eigen::Vector3d edge_flat = model->bodyPose(sole) * (X_end.inverse() * edge_end);
+    EXPECT_LT((edge_end - edge_flat).norm(), 1e-3);
+    EXPECT_LT(std::fabs(edge_end.z()), 1e-3);
+  }
+}
+
 TEST(LowPassConfigurations, KeepsLinesAndDampsNoiseAsItsGaussian) {
   const int n = 1001;
   const double dt = 0.001, cutoff = 8.0, sigma = 0.1325 / cutoff;

@@ -17,7 +17,9 @@
 ///   c̈_xy = ω² (c − p); height by PD on the reference's CoM height.
 /// - Tasks for the QP, rows on x = (v̇, τ_C): the CoM acceleration m c̈ = Σ f + m g written
 ///   on the contact forces (exact: the base rows of Eq. 12 are Newton's law), optionally
-///   L̇ = −k L, and soles kept flat on the ground while their body is in contact.
+///   L̇ = −k L, and soles kept flat on the ground while their body is in contact (a
+///   rolling sole turns as the reference's does, with its angular velocity and acceleration
+///   fed forward, so that the rows do not brake a push-off).
 /// - It also judges whether the reference can be followed at all: a reference that needs
 ///   a supporting force and has no support (hanging in the air), or whose needed force
 ///   lies outside the friction cone of its support (a 40° slope), is reported.

@@ -25,7 +25,12 @@
 ///    the right sole; before, the filter had to stand on the right foot alone).
 ///  - Stance pose of a run: the foot flat (its neutral-stance orientation turned by the
 ///    run's mean heading about the ground normal), its sole centre at the run's mean
-///    horizontal position, the sole on the ground. In a swing the target is the
+///    horizontal position, the sole on the ground. Heel-off: where the run ends with the
+///    reference's sole pitching away from the run's own level (its median pitch) — the heel
+///    rising over the toes, or the toes over the heel — the flat pose rolls over that edge
+///    from the run's last frame within 0.05 rad of that level on, by the pitch beyond those
+///    0.05 rad; the edge stays where it is. (Flattened, the CMU jumps lost their push-off:
+///    the pelvis left the ground at 0.64 m/s instead of 1.6.) In a swing the target is the
 ///    reference's foot corrected (sole centre moved, orientation turned) by the correction
 ///    that ended the last stance, blended (smoothstep) over the whole swing into the one
 ///    that starts the next, so that the target is continuous and accelerates as little as
