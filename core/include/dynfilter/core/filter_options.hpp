@@ -151,7 +151,7 @@ struct BalanceOptions {
   /// Weight of the CoM acceleration rows (per (m/s²)², against 1 per (rad/s²)² of Eq. 17).
   double com_weight = 100.0;
   /// DCM feedback gain k: CoP command p = p_d + (1 + k)(ξ − ξ_d) (dimensionless).
-  double dcm_gain = 2.0;
+  double dcm_gain = 4.0;
   /// CoM height feedback (1/s², 1/s).
   double height_kp = 100.0, height_kd = 20.0;
   /// Centroidal angular momentum damping L̇ = −k L (1/s) and the weight of its rows
