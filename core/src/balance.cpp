@@ -19,6 +19,15 @@ constexpr double kInfeasibleAfterS = 0.25;  // s the reference must look infeasi
 constexpr double kReferenceFlatRad = 0.1;  // a reference sole this close to its surface is flat
 constexpr double kRollLookaheadS = 0.25;   // a face rolls only when the reference lifts it this soon
 
+// Poses @p model at rest in its neutral configuration with the base origin at the ground's
+// height: the body sunk into the ground, so that every corner of a sole touches it.
+void poseNeutralSunk(IDynamicsModel& model) {
+  const ModelInfo& info = model.info();
+  Eigen::VectorXd q = info.neutralConfiguration();
+  q[2] = model.environment().ground.heightAt(q[0], q[1]);
+  model.setState(q, Eigen::VectorXd::Zero(info.nv));
+}
+
 }  // namespace
 
 CentroidalState centroidalState(const Eigen::Ref<const Eigen::MatrixXd>& A,
@@ -75,11 +84,7 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
   if (soles_.empty() && model.environment().has_ground) {
     // The bodies the model stands on: its neutral configuration sunk into the ground.
     const Eigen::VectorXd q_saved = model.q(), v_saved = model.v();
-    Eigen::VectorXd q = info.neutralConfiguration();
-    const Eigen::VectorXd v = Eigen::VectorXd::Zero(info.nv);
-    const GroundPlane& ground = model.environment().ground;
-    q[2] += ground.heightAt(q[0], q[1]) - q[2];
-    model.setState(q, v);
+    poseNeutralSunk(model);
     model.detectContacts(candidates_);
     double deepest = 0.0;
     for (const ContactCandidate& c : candidates_) deepest = std::max(deepest, c.depth_m);
@@ -102,10 +107,7 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
     // Footprints: the neutral configuration sunk into the ground (every corner of a sole
     // is reported); a sole's face is its points lowest along its normal (within 2 mm).
     const Eigen::VectorXd q_saved = model.q(), v_saved = model.v();
-    Eigen::VectorXd q = info.neutralConfiguration();
-    const GroundPlane& ground = model.environment().ground;
-    q[2] = ground.heightAt(q[0], q[1]);
-    model.setState(q, Eigen::VectorXd::Zero(info.nv));
+    poseNeutralSunk(model);
     model.detectContacts(candidates_);
     for (std::size_t s = 0; s < soles_.size(); ++s) {
       SoleFootprint& f = footprints_[s];
