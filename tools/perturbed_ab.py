@@ -112,10 +112,12 @@ def main():
             (out / f"b{b}").mkdir(exist_ok=True)
             refs[b] = reference_of(name, builds[b], out / f"b{b}")
         for seed in range(args.seeds):
+            perturbed = {}  # one perturbed copy per reference, shared when both builds use it
+            for b in per_build:
+                perturbed[b] = out / f"{name}_s{seed}_b{b}_reference.csv"
+                perturb(refs[b], perturbed[b], seed, args.noise)
             for b in (0, 1):
-                src = refs[b if args.reference_per_build else 0]
-                ref_s = out / f"{name}_s{seed}_b{b}_reference.csv"
-                perturb(src, ref_s, seed, args.noise)
+                ref_s = perturbed[b if args.reference_per_build else 0]
                 jobs.append((name, seed, b, builds[b], configs[b], ref_s, args, out))
     res = {}
     with cf.ProcessPoolExecutor(max_workers=args.jobs) as pool:

@@ -264,7 +264,10 @@ std::vector<Eigen::Vector2d> feasibleComPath(const std::vector<PendulumSample>& 
     shiftStill(m - 2, m - 1);
     QpSolverSettings settings;
     settings.eps_abs = 1e-7;
-    settings.max_iterations = 200;  // a window ProxQP cannot converge stops here, not after 1000 (38 s)
+    // The walk's 3–6 s window does not converge under the adapter's 5 Newton steps per
+    // iteration; capped here (38 s at 1000). Its converged answer (20+ steps) was measured
+    // worse for the filter (docs/balance.md §29).
+    settings.max_iterations = 200;
     settings.warm_start = false;
     std::unique_ptr<IQpSolver> solver = qp_solver(nx, n_eq, n_in, settings);
     Eigen::VectorXd sol(nx);
