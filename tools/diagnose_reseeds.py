@@ -217,12 +217,24 @@ def analyse(name, ref_csv, fil_csv, contacts_csv, events_csv, body, ground):
         return hull(np.array(pts)) if pts else np.zeros((0, 2))
 
     out = []
+    previous = -math.inf  # the last re-seed before this episode: its teleport is no motion
     for ep in eps:
         t_r = ep["times"][0]
         k_end = int(np.searchsorted(t_f, t_r))
-        ks = range(max(0, int(np.searchsorted(t_f, t_r - WINDOW_S))), min(k_end + 1, len(t_f)))
+        start = max(t_r - WINDOW_S, previous + 2.0 * dt)
+        previous = ep["times"][-1]
+        # Up to the row before the re-seed's (that row holds the teleported state, and the
+        # velocities are central differences).
+        ks = range(max(0, int(np.searchsorted(t_f, start))), min(k_end - 1, len(t_f)))
         findings = []
         reason = ", ".join(sorted(ep["reasons"]))
+        # The base's lean against its turn (events CSV of dynfilter-offline since §30).
+        row = ep["row"]
+        if row.get("base_tilt_rad") not in (None, ""):
+            tilt, heading = float(row["base_tilt_rad"]), float(row["base_heading_rad"])
+            lean = f"base leaned {math.degrees(tilt):.0f}° from the reference's, heading {math.degrees(heading):+.0f}°"
+            upright = tilt <= pr.FALL_TILT_RAD and row["reseed_reason"] in pr.FALL_REASONS
+            findings.append(lean + (" (upright: a turn or a drift not followed, not a fall)" if upright else ""))
         # Balance of the filtered figure and of the reference.
         first_cp = None
         worst_cp = 0.0
@@ -259,8 +271,9 @@ def analyse(name, ref_csv, fil_csv, contacts_csv, events_csv, body, ground):
                 i = idx_ref[k]
                 W = body.lowest(*S_ref[i], l)
                 z = W[:, 2] - np.array([ground(p[:2]) for p in W])
-                low = np.argsort(z)[:4]  # the sole's corners: their centre does not jump
-                lows.append((ref["time"][i], W[low].mean(axis=0), float(z.min())))
+                # The centre of all its collision points: a fixed set, so it does not jump when
+                # a different corner becomes the lowest (the four lowest did, by 10+ m/s).
+                lows.append((ref["time"][i], W.mean(axis=0), float(z.min())))
             sink = min(z for _, _, z in lows)
             slide = 0.0
             for (ta, pa, za), (tb, pb, zb) in zip(lows, lows[1:]):

@@ -387,18 +387,24 @@ def metrics_of(filtered_csv, contacts_csv, model=None, mu=0.8):
 
 
 FALL_REASONS = ("base position error", "base rotation error")
+# A base re-seed is a fall when the base leaned this far from the reference's (rad): the
+# guard's orientation error also counts a turn about the vertical, and an upright figure
+# whose heading lags 50° is not falling (docs/balance.md §30).
+FALL_TILT_RAD = 0.5
 
 
 def reseed_counts(rows):
     """(re-seeding ticks, falls) of the rows of a `dynfilter-offline --events-csv` file
     (csv.DictReader): every tick with the re-seed bit, and those whose guard's reason is the
-    base's position or orientation. A joint-error re-seed also resets the base, so it can
-    pre-empt a fall: compare falls, not only ticks."""
+    base's position or orientation with the base tilted from the reference's by more than
+    FALL_TILT_RAD (files without the base_tilt_rad column: the reason alone). A joint-error
+    re-seed also resets the base, so it can pre-empt a fall: compare falls, not only ticks."""
     ticks = falls = 0
     for r in rows:
         if int(r["status"]) & 16:
             ticks += 1
-            falls += r["reseed_reason"] in FALL_REASONS
+            tilt = r.get("base_tilt_rad")
+            falls += r["reseed_reason"] in FALL_REASONS and (tilt in (None, "") or float(tilt) > FALL_TILT_RAD)
     return ticks, falls
 
 

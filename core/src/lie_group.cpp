@@ -1,5 +1,6 @@
 #include "dynfilter/core/lie_group.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace dynfilter {
@@ -138,6 +139,25 @@ void differenceConfiguration(bool floating_base, const Eigen::Ref<const Eigen::V
       basePoseFromConfiguration(q0).inverse() * basePoseFromConfiguration(q1);
   dv_out.head<6>() = logSE3(X_B0B1);
   dv_out.tail(nj) = q1.tail(nj) - q0.tail(nj);
+}
+
+namespace {
+
+double headingOf(const Eigen::Matrix3d& R_WB) {
+  const Eigen::Vector3d& x = R_WB.col(0);
+  if (x.head<2>().norm() >= std::sqrt(0.5)) return std::atan2(x.y(), x.x());
+  const Eigen::Vector3d& y = R_WB.col(1);  // x near vertical: y turned by −π/2 points where x would
+  return std::atan2(-y.x(), y.y());
+}
+
+}  // namespace
+
+TiltHeading tiltAndHeading(const Eigen::Matrix3d& R_WA, const Eigen::Matrix3d& R_WB) {
+  TiltHeading out;
+  out.tilt_rad = std::acos(std::clamp(R_WA.col(2).dot(R_WB.col(2)), -1.0, 1.0));
+  out.heading_rad = std::remainder(headingOf(R_WB) - headingOf(R_WA), 2.0 * M_PI);
+  if (out.heading_rad <= -M_PI) out.heading_rad += 2.0 * M_PI;
+  return out;
 }
 
 }  // namespace dynfilter

@@ -130,6 +130,44 @@ TEST(LieGroup, FixedBaseIsVectorSpace) {
   EXPECT_LT((dv - 0.2 * v).norm(), 1e-15);
 }
 
+TEST(LieGroup, TiltAndHeadingSplitATurnAboutVerticalFromALean) {
+  const auto Rz = [](double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix(); };
+  const auto Rx = [](double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX()).toRotationMatrix(); };
+  const auto Ry = [](double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitY()).toRotationMatrix(); };
+  const Eigen::Matrix3d A = Rz(0.4);
+  // A turn about world z: no tilt, the whole angle is heading (wrapped into (−π, π]).
+  for (const double turn : {0.0, 0.7, -1.3, 3.0}) {
+    const TiltHeading d = tiltAndHeading(A, Rz(turn) * A);
+    EXPECT_NEAR(d.tilt_rad, 0.0, 1e-7) << turn;
+    EXPECT_NEAR(d.heading_rad, turn, 1e-12) << turn;
+  }
+  EXPECT_NEAR(tiltAndHeading(A, Rz(M_PI + 0.2) * A).heading_rad, -M_PI + 0.2, 1e-12);
+  EXPECT_NEAR(tiltAndHeading(Rz(0.1), Rz(0.1 + M_PI)).heading_rad, M_PI, 1e-12);
+  // A lean about the body's own x or y axis: tilt = the lean, heading 0.
+  for (const double lean : {0.2, 0.7, -0.6}) {
+    const TiltHeading dx = tiltAndHeading(A, A * Rx(lean));
+    const TiltHeading dy = tiltAndHeading(A, A * Ry(lean));
+    EXPECT_NEAR(dx.tilt_rad, std::abs(lean), 1e-12) << lean;
+    EXPECT_NEAR(dx.heading_rad, 0.0, 1e-12) << lean;
+    EXPECT_NEAR(dy.tilt_rad, std::abs(lean), 1e-12) << lean;
+    EXPECT_NEAR(dy.heading_rad, 0.0, 1e-12) << lean;
+  }
+  // A lean after a turn keeps both parts; tilt never exceeds the rotation's angle.
+  const TiltHeading both = tiltAndHeading(A, Rz(0.8) * A * Ry(0.5));
+  EXPECT_NEAR(both.tilt_rad, 0.5, 1e-12);
+  EXPECT_NEAR(both.heading_rad, 0.8, 1e-12);
+  std::mt19937 rng(7);
+  for (int k = 0; k < 200; ++k) {
+    const Eigen::Matrix3d B = expSO3(randomTwist(rng, 1.5).tail<3>());
+    const Eigen::Matrix3d C = expSO3(randomTwist(rng, 1.5).tail<3>()) * B;
+    EXPECT_LE(tiltAndHeading(B, C).tilt_rad, logSO3(B.transpose() * C).norm() + 1e-12);
+  }
+  // A base whose x axis points straight down: its heading is read from its y axis.
+  const Eigen::Matrix3d down = Ry(M_PI / 2);  // x to −z, y stays +y
+  EXPECT_NEAR(tiltAndHeading(Eigen::Matrix3d::Identity(), down).heading_rad, 0.0, 1e-12);
+  EXPECT_NEAR(tiltAndHeading(Rz(0.3), Rz(0.3) * down).heading_rad, 0.0, 1e-12);
+}
+
 }  // namespace
 }  // namespace dynfilter
 

@@ -55,6 +55,17 @@ def main():
             '2.5,1200,16,base position error,0,"",0.51,0.4,0.5\n')
         if pr.count_reseeds(events) != (3, 2):
             fail(f"re-seeds and falls of the events file: {pr.count_reseeds(events)}, expected (3, 2)")
+        # With the base's tilt and heading: an upright figure whose heading lags is no fall.
+        split = tmp / "split.csv"
+        split.write_text(
+            "time,tick,status,reseed_reason,qp_relaxation,qp_violated,base_error_m,base_rotation_rad,"
+            "max_joint_error_rad,base_tilt_rad,base_heading_rad\n"
+            '2.0,960,16,base rotation error,0,"",0.3,1.01,0.5,0.93,-0.5\n'
+            '2.5,1200,16,base rotation error,0,"",0.2,1.0,0.6,0.12,0.98\n'
+            '3.0,1440,16,base position error,0,"",0.51,0.6,0.4,0.56,0.2\n'
+            '3.5,1680,16,base position error,0,"",0.5,0.3,0.5,0.13,0.34\n')
+        if pr.count_reseeds(split) != (4, 2):
+            fail(f"re-seeds and falls by tilt: {pr.count_reseeds(split)}, expected (4, 2)")
         if pr.count_reseeds(tmp / "none.csv") != (0, 0):
             fail("a missing events file does not count as no re-seed")
         once, twice = tmp / "once.bvh", tmp / "twice.bvh"

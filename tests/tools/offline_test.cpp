@@ -255,14 +255,20 @@ TEST(Offline, EventRowsKeepTheirColumnsWhenSeveralConstraintFamiliesAreViolated)
   std::string line;
   ASSERT_TRUE(std::getline(in, line));
   const std::vector<std::string> header = splitQuoted(line);
-  ASSERT_EQ(header.size(), 9u);
+  ASSERT_EQ(header.size(), 11u);
   const int violated = column(header, "qp_violated"), rotation = column(header, "base_rotation_rad");
+  const int tilt = column(header, "base_tilt_rad"), heading = column(header, "base_heading_rad");
   int several = 0, rows = 0;
   while (std::getline(in, line)) {
     const std::vector<std::string> f = splitQuoted(line);
     ASSERT_EQ(f.size(), header.size()) << line;
     several += f[static_cast<std::size_t>(violated)].find(',') != std::string::npos;
-    EXPECT_GE(std::stod(f[static_cast<std::size_t>(rotation)]), 0.0) << line;
+    const double angle = std::stod(f[static_cast<std::size_t>(rotation)]);
+    EXPECT_GE(angle, 0.0) << line;
+    // The lean is part of the orientation error: never more than its whole angle.
+    EXPECT_GE(std::stod(f[static_cast<std::size_t>(tilt)]), 0.0) << line;
+    EXPECT_LE(std::stod(f[static_cast<std::size_t>(tilt)]), angle + 1e-5) << line;
+    EXPECT_LE(std::abs(std::stod(f[static_cast<std::size_t>(heading)])), M_PI + 1e-9) << line;
     ++rows;
   }
   EXPECT_GT(rows, 0);

@@ -24,6 +24,7 @@
 #include "model_cli.hpp"
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/errors.hpp"
+#include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/backends/make_model.hpp"
 #include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/io/config.hpp"
@@ -144,8 +145,10 @@ int main(int argc, char** argv) {
   app.add_option("--events-csv", events_path,
                  "also write one row per tick that re-seeded, relaxed or fell back: "
                  "time,tick,status,reseed_reason,qp_relaxation,qp_violated,base_error_m,"
-                 "base_rotation_rad,max_joint_error_rad (qp_violated quoted: a comma-separated list of "
-                 "constraint families; what tools/diagnose_reseeds.py reads)");
+                 "base_rotation_rad,max_joint_error_rad,base_tilt_rad,base_heading_rad (qp_violated "
+                 "quoted: a comma-separated list of constraint families; tilt: the angle between the "
+                 "filtered and reference bases' z axes, heading: their turn about world z; what "
+                 "tools/diagnose_reseeds.py reads)");
   app.add_flag("-q,--quiet", quiet, "no summary");
   CLI11_PARSE(app, argc, argv);
 
@@ -193,7 +196,7 @@ int main(int argc, char** argv) {
       events = std::fopen((events_path + ".tmp").c_str(), "w");
       if (events == nullptr) throw std::runtime_error("cannot write " + events_path + ".tmp");
       std::fprintf(events, "time,tick,status,reseed_reason,qp_relaxation,qp_violated,base_error_m,"
-                           "base_rotation_rad,max_joint_error_rad\n");
+                           "base_rotation_rad,max_joint_error_rad,base_tilt_rad,base_heading_rad\n");
     }
     const int nb = model->info().floating_base ? 6 : 0;
     io::FilteredMotionWriter writer(output_path, model->info());
@@ -215,12 +218,17 @@ int main(int argc, char** argv) {
               (out.status & (kStatusReseeded | kStatusQpRelaxed | kStatusQpFallback))) {
             char violated[96];
             const Eigen::VectorXd& e = out.tracking_error;
-            std::fprintf(events, "%.6f,%ld,%u,%s,%u,\"%s\",%.6g,%.6g,%.6g\n", tick.time_s, tick.index,
+            // The base's orientation error split: a lean (a fall) against a lagging turn.
+            const TiltHeading split = nb ? tiltAndHeading(basePoseFromConfiguration(tick.reference->q).linear(),
+                                                          basePoseFromConfiguration(out.q).linear())
+                                         : TiltHeading{};
+            std::fprintf(events, "%.6f,%ld,%u,%s,%u,\"%s\",%.6g,%.6g,%.6g,%.6g,%.6g\n", tick.time_s, tick.index,
                          out.status, (out.status & kStatusReseeded) ? toString(out.reseed_reason) : "",
                          out.qp_relaxation,
                          describeQpFamilies(out.qp_violated, violated, sizeof violated),
                          nb ? e.head<3>().norm() : 0.0, nb ? e.segment<3>(3).norm() : 0.0,
-                         model->nj() > 0 ? e.tail(model->nj()).cwiseAbs().maxCoeff() : 0.0);
+                         model->nj() > 0 ? e.tail(model->nj()).cwiseAbs().maxCoeff() : 0.0,
+                         split.tilt_rad, split.heading_rad);
           }
           if (tick.row) {
             writer.append(out, tick.row_status);

@@ -58,4 +58,16 @@ void differenceConfiguration(bool floating_base, const Eigen::Ref<const Eigen::V
                              const Eigen::Ref<const Eigen::VectorXd>& q1,
                              Eigen::Ref<Eigen::VectorXd> dv_out);
 
+/// How two base orientations differ, split into what balance cares about and what it does
+/// not (world z up): `tilt_rad` is the angle between the bases' z axes ([0, π]); `heading_rad`
+/// is the turn about world z from A's heading to B's ((−π, π]), a base's heading being the
+/// direction of its x axis projected on the ground (of its y axis turned by −π/2 where x is
+/// within 45° of vertical). tilt ≤ the angle of R_WA⁻¹ R_WB; a turn about world z alone
+/// gives tilt 0 and heading = that turn.
+struct TiltHeading {
+  double tilt_rad = 0.0;
+  double heading_rad = 0.0;
+};
+TiltHeading tiltAndHeading(const Eigen::Matrix3d& R_WA, const Eigen::Matrix3d& R_WB);
+
 }  // namespace dynfilter
