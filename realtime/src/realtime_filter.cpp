@@ -23,12 +23,6 @@ StreamOptions streamOptions(const RealtimeOptions& options, double silence_s) {
 // A play time held back (a late sender) catches up at most this fast (× real time).
 constexpr double kCatchUpRate = 1.5;
 
-// Yaw of the base orientation (w, x, y, z at q[3..6]): the heading of its x axis in the
-// horizontal plane.
-double baseYaw(const Eigen::Ref<const Eigen::VectorXd>& q) {
-  const Eigen::Matrix3d R = Eigen::Quaterniond(q[3], q[4], q[5], q[6]).normalized().toRotationMatrix();
-  return std::atan2(R(1, 0), R(0, 0));
-}
 
 }  // namespace
 
@@ -80,7 +74,8 @@ bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s,
     play_s_ = frame.time_s;
     X_WS_.setIdentity();
     if (floating && options_.align_to_robot) {
-      const double yaw = baseYaw(robot) - baseYaw(frame.q);
+      const double yaw = tiltAndHeading(basePoseFromConfiguration(frame.q).linear(),
+                                        basePoseFromConfiguration(robot).linear()).heading_rad;
       X_WS_.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
       const Eigen::Vector3d p_S(frame.q[0], frame.q[1], 0.0), p_W(robot[0], robot[1], 0.0);
       X_WS_.translation() = p_W - X_WS_.linear() * p_S;
