@@ -233,7 +233,7 @@ def analyse(name, ref_csv, fil_csv, contacts_csv, events_csv, body, ground):
         if row.get("base_tilt_rad") not in (None, ""):
             tilt, heading = float(row["base_tilt_rad"]), float(row["base_heading_rad"])
             lean = f"base leaned {math.degrees(tilt):.0f}° from the reference's, heading {math.degrees(heading):+.0f}°"
-            upright = tilt <= pr.FALL_TILT_RAD and row["reseed_reason"] in pr.FALL_REASONS
+            upright = row["reseed_reason"] in pr.FALL_REASONS and not pr.is_fall(row)
             findings.append(lean + (" (upright: a turn or a drift not followed, not a fall)" if upright else ""))
         # Balance of the filtered figure and of the reference.
         first_cp = None

@@ -393,18 +393,24 @@ FALL_REASONS = ("base position error", "base rotation error")
 FALL_TILT_RAD = 0.5
 
 
+def is_fall(row):
+    """Whether an events-CSV row re-seeded a fall: the guard's reason is the base's position or
+    orientation and the base leaned more than FALL_TILT_RAD from the reference's (files
+    without the base_tilt_rad column: the reason alone)."""
+    tilt = row.get("base_tilt_rad")
+    return row["reseed_reason"] in FALL_REASONS and (tilt in (None, "") or float(tilt) > FALL_TILT_RAD)
+
+
 def reseed_counts(rows):
     """(re-seeding ticks, falls) of the rows of a `dynfilter-offline --events-csv` file
     (csv.DictReader): every tick with the re-seed bit, and those whose guard's reason is the
-    base's position or orientation with the base tilted from the reference's by more than
-    FALL_TILT_RAD (files without the base_tilt_rad column: the reason alone). A joint-error
-    re-seed also resets the base, so it can pre-empt a fall: compare falls, not only ticks."""
+    base's falling (is_fall). A joint-error re-seed also resets the base, so it can pre-empt
+    a fall: compare falls, not only ticks."""
     ticks = falls = 0
     for r in rows:
         if int(r["status"]) & 16:
             ticks += 1
-            tilt = r.get("base_tilt_rad")
-            falls += r["reseed_reason"] in FALL_REASONS and (tilt in (None, "") or float(tilt) > FALL_TILT_RAD)
+            falls += is_fall(r)
     return ticks, falls
 
 

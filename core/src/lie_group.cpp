@@ -41,6 +41,15 @@ Eigen::Matrix3d leftJacobianInverseSO3(const Eigen::Vector3d& omega) {
   return Eigen::Matrix3d::Identity() - 0.5 * K + c * K * K;
 }
 
+// Heading of a base about world z: its x axis on the ground, or its y axis turned by −π/2
+// where x is within 45° of vertical (tiltAndHeading).
+double headingOf(const Eigen::Matrix3d& R_WB) {
+  const Eigen::Vector3d& x = R_WB.col(0);
+  if (x.head<2>().norm() >= std::sqrt(0.5)) return std::atan2(x.y(), x.x());
+  const Eigen::Vector3d& y = R_WB.col(1);
+  return std::atan2(-y.x(), y.y());
+}
+
 }  // namespace
 
 Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
@@ -140,17 +149,6 @@ void differenceConfiguration(bool floating_base, const Eigen::Ref<const Eigen::V
   dv_out.head<6>() = logSE3(X_B0B1);
   dv_out.tail(nj) = q1.tail(nj) - q0.tail(nj);
 }
-
-namespace {
-
-double headingOf(const Eigen::Matrix3d& R_WB) {
-  const Eigen::Vector3d& x = R_WB.col(0);
-  if (x.head<2>().norm() >= std::sqrt(0.5)) return std::atan2(x.y(), x.x());
-  const Eigen::Vector3d& y = R_WB.col(1);  // x near vertical: y turned by −π/2 points where x would
-  return std::atan2(-y.x(), y.y());
-}
-
-}  // namespace
 
 TiltHeading tiltAndHeading(const Eigen::Matrix3d& R_WA, const Eigen::Matrix3d& R_WB) {
   TiltHeading out;
