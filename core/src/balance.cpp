@@ -276,6 +276,21 @@ bool BalanceLayer::pushPreview(IDynamicsModel& model, const ReferenceFrame& fram
   return true;
 }
 
+void BalanceLayer::transformPreview(const Eigen::Isometry3d& X_WW) {
+  const Eigen::Matrix3d& R = X_WW.linear();
+  for (int i = 0; i < size_; ++i) {
+    Sample& s = ring_[ringIndex(i)];
+    s.c = X_WW * s.c;
+    s.cdot = R * s.cdot;
+    s.L = R * s.L;
+    for (int k = 0; k < s.num_support; ++k) {
+      Eigen::Vector2d& p = s.support[static_cast<std::size_t>(k)];
+      p = (X_WW * Eigen::Vector3d(p.x(), p.y(), groundHeight(p))).head<2>();
+    }
+    s.excess_key.fill(std::numeric_limits<double>::quiet_NaN());  // recomputed where moved
+  }
+}
+
 int BalanceLayer::sampleBefore(int i, double t) const {
   while (i > 0 && at(i).t > t) --i;
   return i;

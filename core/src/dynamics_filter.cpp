@@ -11,6 +11,7 @@
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/core/reference_leash.hpp"
 #include "dynfilter/core/tick_clock.hpp"
 
 namespace dynfilter {
@@ -62,6 +63,7 @@ DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& optio
   q_ = info.neutralConfiguration();
   v_.setZero(nv_);
   last_reference_ = ReferenceFrame(info.nq, nv_);
+  preview_frame_ = ReferenceFrame(info.nq, nv_);
   A_.setZero(nv_, nv_);
   H_C_.setZero(max_rows, nv_);
   H_impact_.setZero(max_rows, nv_);
@@ -98,6 +100,8 @@ void DynamicsFilter::reset(const ReferenceFrame& reference) {
   if (reference.vdot.size() != nv_ || !reference.vdot.allFinite())
     throw InvalidStateError("reference acceleration must have nv = " + std::to_string(nv_) +
                             " finite entries");
+  X_leash_.setIdentity();
+  out_.X_reference_offset.setIdentity();
   last_reference_.time_s = reference.time_s;
   last_reference_.q = reference.q;
   last_reference_.q.segment(3, nb_ > 0 ? 4 : 0).normalize();
@@ -139,7 +143,25 @@ void DynamicsFilter::reseed(const ReferenceFrame& reference) {
 }
 
 bool DynamicsFilter::previewFrame(const ReferenceFrame& frame) {
-  return balance_ ? balance_->pushPreview(model_, frame) : false;
+  if (!balance_) return false;
+  if (!options_.leash.enabled) return balance_->pushPreview(model_, frame);
+  if (frame.q.size() != preview_frame_.q.size() || frame.v.size() != nv_) return false;
+  preview_frame_.time_s = frame.time_s;
+  preview_frame_.q = frame.q;
+  preview_frame_.v = frame.v;
+  moveBase(X_leash_, preview_frame_.q);
+  return balance_->pushPreview(model_, preview_frame_);
+}
+
+void DynamicsFilter::followWithLeash() {
+  const Environment& environment = model_.environment();
+  const Eigen::Vector3d n_W = environment.has_ground ? environment.ground.n_W : Eigen::Vector3d::UnitZ();
+  const Eigen::Isometry3d X = leashMotion(options_.leash, n_W, q_, last_reference_.q);
+  if (X.isApprox(Eigen::Isometry3d::Identity(), 0.0)) return;
+  X_leash_ = X * X_leash_;
+  moveBase(X, last_reference_.q);
+  if (balance_) balance_->transformPreview(X);
+  ++out_.counters.leash_ticks;
 }
 
 bool DynamicsFilter::setMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
@@ -207,6 +229,10 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
         double& qj = last_reference_.q[info.configurationIndex(j)];
         qj = std::clamp(qj, info.q_lower[j], info.q_upper[j]);
       }
+    }
+    if (nb_ > 0 && options_.leash.enabled) {
+      moveBase(X_leash_, last_reference_.q);
+      if (has_reference_) followWithLeash();
     }
     if (!has_reference_) {
       has_reference_ = true;
@@ -328,6 +354,7 @@ const FilterOutput& DynamicsFilter::step(const ReferenceFrame& reference) {
   out_.counters.pivot_ticks += pivots ? 1 : 0;
   out_.counters.slide_ticks += slides ? 1 : 0;
   out_.time_s = ref.time_s;
+  out_.X_reference_offset = X_leash_;
   out_.q = q_;
   out_.v = v_;
   out_.vdot = vdot_solved_;

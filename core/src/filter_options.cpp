@@ -46,6 +46,8 @@ void FilterOptions::validate() const {
   require(positive(divergence.max_base_residual_rel), "divergence.max_base_residual_rel",
           "must be > 0");
   require(divergence.max_degraded_ticks >= 1, "divergence.max_degraded_ticks", "must be >= 1");
+  require(positive(leash.max_offset_m), "leash.max_offset_m", "must be > 0");
+  require(positive(leash.max_heading_rad), "leash.max_heading_rad", "must be > 0");
   require(mode == FilterMode::kPaper || mode == FilterMode::kQp, "mode", "must be paper or qp");
   require(positive(qp.accel_weight), "qp.accel_weight", "must be > 0");
   require(positive(qp.force_weight), "qp.force_weight", "must be > 0");

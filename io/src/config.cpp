@@ -195,6 +195,14 @@ class Parser {
             });
   }
 
+  void readLeash(const Entry& e, LeashOptions& l) {
+    readMap(e, {"enabled", "max_offset_m", "max_heading_rad"}, [&](const std::string& k, const Entry& v) {
+      if (k == "enabled") l.enabled = boolean(v);
+      if (k == "max_offset_m") l.max_offset_m = number(v);
+      if (k == "max_heading_rad") l.max_heading_rad = number(v);
+    });
+  }
+
   void readBalance(const Entry& e, BalanceOptions& b) {
     readMap(e,
             {"enabled", "com_weight", "dcm_gain", "height_kp", "height_kd",
@@ -327,7 +335,7 @@ class Parser {
     FilterOptions& f = config.filter;
     readMap(top,
             {"dt_s", "mode", "feedback", "task", "contacts", "solver", "qp", "divergence",
-             "balance", "environment"},
+             "balance", "leash", "environment"},
             [&](const std::string& k, const Entry& v) {
               if (k == "dt_s") f.dt_s = number(v);
               if (k == "mode" && !parseFilterMode(text(v), f.mode))
@@ -339,6 +347,7 @@ class Parser {
               if (k == "solver") readSolver(v, f.solver);
               if (k == "divergence") readDivergence(v, f.divergence);
               if (k == "balance") readBalance(v, f.balance);
+              if (k == "leash") readLeash(v, f.leash);
               if (k == "environment") readEnvironment(v, config.environment);
             });
     try {

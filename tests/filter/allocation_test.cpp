@@ -20,6 +20,7 @@
 #include "dynfilter/core/dynamics_simulator.hpp"
 #include "dynfilter/core/ground_contacts.hpp"
 #include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/core/reference_leash.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
@@ -182,6 +183,39 @@ TEST_P(AllocationQp, QpModeSteadyStateTickAllocatesNothingInTheCore) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, AllocationQp, ::testing::Values("daqp", "proxqp"));
+
+// The reference leash moving the reference and the balance layer's preview on every tick
+// (a reference that walks off at 0.5 m/s and turns at 1 rad/s while the figure stands).
+TEST(Allocation, TheLeashAllocatesNothingInTheCore) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
+  auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  std::vector<ReferenceFrame> frames = test::simulateStandingSway(*dart, 0.4, 1e-3);
+  const Eigen::Vector3d p0 = frames.front().q.head<3>();
+  for (ReferenceFrame& f : frames) {
+    const Eigen::Isometry3d X = Eigen::Translation3d(p0 + Eigen::Vector3d(0.5 * f.time_s, 0.0, 0.0)) *
+                                Eigen::AngleAxisd(f.time_s, Eigen::Vector3d::UnitZ()) * Eigen::Translation3d(-p0);
+    moveBase(X, f.q);
+  }
+  MeasuredModel model(*dart);
+  FilterOptions options;
+  options.mode = FilterMode::kQp;
+  options.leash.enabled = true;
+  DynamicsFilter filter(model, options, qp_engines::factory("daqp"));
+  filter.reset(frames.front());
+  for (int k = 0; k < 50; ++k) filter.step(frames[static_cast<std::size_t>(k)]);  // warm up
+  const std::uint64_t leash_before = filter.output().counters.leash_ticks;
+  resetCounts();
+  g_counting = true;
+  std::size_t previewed = 50;
+  for (std::size_t k = 50; k < frames.size(); ++k) {
+    while (previewed < frames.size() && previewed < k + 50) filter.previewFrame(frames[previewed++]);
+    filter.step(frames[k]);
+  }
+  g_counting = false;
+  EXPECT_GT(filter.output().counters.leash_ticks, leash_before + 100) << "the leash moved the reference";
+  EXPECT_EQ(filter.output().counters.reseeds, 0u);
+  expectNoCoreAllocations(static_cast<long>(frames.size()) - 50);
+}
 
 // The QP mode's relaxation: legs too weak (5 N m) to stand on bent knees make the QP with
 // the joint-limit bounds infeasible; the bounds give way in a re-solve in which DAQP keeps

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "dynfilter/core/balance.hpp"
+#include "dynfilter/core/reference_leash.hpp"
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/model_sampling.hpp"
@@ -252,6 +253,57 @@ TEST(Balance, TheCachedBackwardPassGivesTheTargetOfAFreshLayer) {
   }
   EXPECT_EQ(compared, 12);
   EXPECT_GT(largest_offset, 0.01) << "the reference's CoP must leave its support for the excesses to matter";
+}
+
+// The reference leash moves the preview with the reference (BalanceLayer::transformPreview):
+// a layer whose samples were moved by a turn about the vertical and a shift must give the
+// target of a fresh layer fed the moved frames, and that target is the moved one.
+TEST(Balance, APreviewMovedByTheLeashGivesTheTargetOfTheMovedReference) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const ModelInfo& info = model->info();
+  Eigen::VectorXd q0 = info.neutralConfiguration();
+  q0[2] = standingBaseHeight(*model, q0);
+  const double a = 0.08, w = 3.0 * M_PI;  // a CoP outside the soles: the excesses matter
+  auto frameAt = [&](double t) {
+    ReferenceFrame f(info.nq, info.nv);
+    f.time_s = t;
+    f.q = q0;
+    f.q[0] += a * std::sin(w * t);
+    f.v[0] = a * w * std::cos(w * t);
+    f.vdot[0] = -a * w * w * std::sin(w * t);
+    return f;
+  };
+  const Eigen::Isometry3d X = Eigen::Translation3d(0.3, -0.2, 0.0) *
+                              Eigen::AngleAxisd(0.6, Eigen::Vector3d::UnitZ()) *
+                              Eigen::Translation3d(-0.1, 0.05, 0.0);
+  auto moved = [&](double t) {
+    ReferenceFrame f = frameAt(t);
+    moveBase(X, f.q);
+    return f;
+  };
+  BalanceOptions options;
+  options.preview_s = 2.0;
+  BalanceLayer layer(*model, options), fresh(*model, options), unmoved(*model, options);
+  for (int k = 0; k <= 240; ++k) {
+    ASSERT_TRUE(layer.pushPreview(*model, frameAt(k / 120.0)));
+    ASSERT_TRUE(unmoved.pushPreview(*model, frameAt(k / 120.0)));
+    ASSERT_TRUE(fresh.pushPreview(*model, moved(k / 120.0)));
+  }
+  const double t = 0.31;
+  layer.prepare(*model, frameAt(t - 0.01), 1e-3);  // its excesses cached on the unmoved samples
+  layer.transformPreview(X);
+  layer.prepare(*model, moved(t), 1e-3);
+  fresh.prepare(*model, moved(t), 1e-3);
+  unmoved.prepare(*model, frameAt(t), 1e-3);
+  const Eigen::Vector2d xi = layer.state().dcm_desired;
+  // The fresh layer finds its supports by collision at the moved pose: the engine's
+  // contact points agree to ~1e-8 m.
+  EXPECT_LT((xi - fresh.state().dcm_desired).norm(), 1e-7);
+  const Eigen::Vector2d xi0 = unmoved.state().dcm_desired;
+  EXPECT_LT((xi - (X * Eigen::Vector3d(xi0.x(), xi0.y(), 0.0)).head<2>()).norm(), 1e-9);
+  const double omega = std::sqrt(kStandardGravity / unmoved.state().reference.c_W.z());
+  const Eigen::Vector2d own = unmoved.state().reference.c_W.head<2>() + unmoved.state().reference.cdot_W.head<2>() / omega;
+  EXPECT_GT((xi0 - own).norm(), 0.01) << "the excesses must move the target for the test to see them";
 }
 
 // Flat landing: a sole that touches down on its heel edge holds a face link over its whole

@@ -1,5 +1,6 @@
 // The divergence guard (issue 9): each bound of DivergenceOptions is forced to trip, and
 // the filter must re-seed from the reference, say why, and keep its output finite.
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -7,6 +8,7 @@
 
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/core/reference_leash.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/reference_motions.hpp"
 #include "support/test_support.hpp"
@@ -138,6 +140,45 @@ TEST(DivergenceOptions, InvalidBoundsAreRejectedByName) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("divergence.max_degraded_ticks"), std::string::npos) << e.what();
   }
+}
+
+// The reference leash (LeashOptions): a reference that walks off at 2 m/s and turns at
+// 4 rad/s while the figure stands re-seeds the plain filter; with the leash the reference is
+// moved back to the figure, never further than the bounds along the ground and in heading
+// (on every tick, to rounding), and nothing re-seeds.
+TEST_F(Divergence, TheLeashFollowsADriftAndATurnInsteadOfReseeding) {
+  std::vector<ReferenceFrame> drifting = frames_;
+  const Eigen::Vector3d p0 = frames_.front().q.head<3>();
+  for (ReferenceFrame& f : drifting) {
+    const double t = f.time_s - frames_.front().time_s;
+    const Eigen::Isometry3d X = Eigen::Translation3d(p0 + Eigen::Vector3d(2.0 * t, 0.0, 0.0)) *
+                                Eigen::AngleAxisd(4.0 * t, Eigen::Vector3d::UnitZ()) * Eigen::Translation3d(-p0);
+    moveBase(X, f.q);
+  }
+  {
+    DynamicsFilter plain(*model_, FilterOptions{});
+    plain.reset(drifting.front());
+    for (const ReferenceFrame& f : drifting) plain.step(f);
+    EXPECT_GT(plain.output().counters.reseeds, 0u) << "the drift must trip the guard without the leash";
+  }
+  FilterOptions options;
+  options.leash.enabled = true;
+  DynamicsFilter filter(*model_, options);
+  filter.reset(drifting.front());
+  double largest_offset = 0.0, largest_heading = 0.0;
+  for (const ReferenceFrame& f : drifting) {
+    const FilterOutput& out = filter.step(f);
+    ASSERT_EQ(out.status & kStatusReseeded, 0u) << "t = " << f.time_s << ": " << toString(out.reseed_reason);
+    Eigen::VectorXd tracked = f.q;  // the reference this tick tracked
+    moveBase(out.X_reference_offset, tracked);
+    largest_offset = std::max(largest_offset, (tracked.head<2>() - out.q.head<2>()).norm());
+    const Eigen::Matrix3d R_filter = Eigen::Quaterniond(out.q[3], out.q[4], out.q[5], out.q[6]).toRotationMatrix();
+    const Eigen::Matrix3d R_tracked = Eigen::Quaterniond(tracked[3], tracked[4], tracked[5], tracked[6]).toRotationMatrix();
+    largest_heading = std::max(largest_heading, std::abs(tiltAndHeading(R_filter, R_tracked).heading_rad));
+  }
+  EXPECT_NEAR(largest_offset, options.leash.max_offset_m, 1e-9);
+  EXPECT_NEAR(largest_heading, options.leash.max_heading_rad, 1e-9);
+  EXPECT_GT(filter.output().counters.leash_ticks, 100u);
 }
 
 }  // namespace

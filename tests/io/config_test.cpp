@@ -85,6 +85,9 @@ void expectSameFilterOptions(const FilterOptions& a, const FilterOptions& b) {
   EXPECT_EQ(a.balance.sole_kd, b.balance.sole_kd);
   EXPECT_EQ(a.balance.sole_margin_m, b.balance.sole_margin_m);
   EXPECT_EQ(a.balance.flat_landing_max_tilt_rad, b.balance.flat_landing_max_tilt_rad);
+  EXPECT_EQ(a.leash.enabled, b.leash.enabled);
+  EXPECT_EQ(a.leash.max_offset_m, b.leash.max_offset_m);
+  EXPECT_EQ(a.leash.max_heading_rad, b.leash.max_heading_rad);
 }
 
 void expectSameEnvironment(const Environment& a, const Environment& b) {
@@ -127,7 +130,7 @@ TEST(ConfigFile, ShippedDefaultFileListsEveryKeyOnceWithAComment) {
   const std::map<std::string, int> expected{
       {"dt_s", 1}, {"feedback", 1}, {"base_linear_kp", 1}, {"base_linear_kd", 1},
       {"base_angular_kp", 1}, {"base_angular_kd", 1}, {"joint_kp", 1}, {"joint_kd", 1},
-      {"task", 1}, {"enabled", 2}, {"body", 1}, {"p_BP", 1}, {"kp_linear", 1},
+      {"task", 1}, {"enabled", 3}, {"body", 1}, {"p_BP", 1}, {"kp_linear", 1},
       {"kd_linear", 1}, {"kp_angular", 1}, {"kd_angular", 1}, {"joint_weight", 1},
       {"as_constraint_rows", 1}, {"initial_penetration_tolerance_m", 1},
       {"contacts", 1}, {"max_links", 1}, {"stabilization_kp", 1}, {"stabilization_kd", 1},
@@ -146,7 +149,7 @@ TEST(ConfigFile, ShippedDefaultFileListsEveryKeyOnceWithAComment) {
       {"stance_height_m", 1}, {"stance_speed_mps", 1}, {"sole_weight", 1}, {"sole_kp", 1},
       {"sole_kd", 1}, {"sole_margin_m", 1}, {"flat_landing_max_tilt_rad", 1}, {"roll_tilt_rad", 1},
       {"ground", 1}, {"slope_deg", 1}, {"heading_deg", 1}, {"height_m", 1}, {"friction", 1},
-      {"boxes", 1}};
+      {"boxes", 1}, {"leash", 1}, {"max_offset_m", 1}, {"max_heading_rad", 1}};
   EXPECT_EQ(count, expected);
 }
 
@@ -167,7 +170,8 @@ TEST(ConfigFile, AKeyOverridesExactlyItsField) {
       "contacts:\n"
       "  max_links: 12\n"
       "  plastic_impact: false\n"
-      "solver: {sr_damping: 1e-6}\n",
+      "solver: {sr_damping: 1e-6}\n"
+      "leash: {enabled: true, max_offset_m: 0.25}\n",
       "override.yaml");
   FilterOptions expected;
   expected.dt_s = 0.002;
@@ -178,6 +182,8 @@ TEST(ConfigFile, AKeyOverridesExactlyItsField) {
   expected.contacts.max_links = 12;
   expected.contacts.plastic_impact = false;
   expected.solver.sr_damping = 1e-6;
+  expected.leash.enabled = true;
+  expected.leash.max_offset_m = 0.25;
   expectSameFilterOptions(config.filter, expected);
   expectSameEnvironment(config.environment, Environment{});
 }
@@ -288,6 +294,8 @@ TEST(ConfigFileErrors, ValuesRejectedByValidateAreLocatedAtTheirKey) {
                     "contacts.max_links: filter option contacts.max_links");
   expectConfigError("environment:\n  boxes:\n    - {name: a}\n    - {name: b, size_m: [1, -1, 1]}\n", 4, 17,
                     "environment.boxes[1].size_m: environment: box 1 \"b\": size must be finite and positive");
+  expectConfigError("leash:\n  max_heading_rad: 0\n", 2, 3,
+                    "leash.max_heading_rad: filter option leash.max_heading_rad");
   expectConfigError("environment:\n  ground: {friction: -0.1}\n", 2, 12,
                     "environment.ground.friction: environment: ground friction must be >= 0");
 }

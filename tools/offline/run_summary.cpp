@@ -51,6 +51,8 @@ void RunSummary::add(const FilterOutput& out) {
     pulling |= f < 0.0;
   }
   ticks_with_pulling_ += pulling;
+  leash_ticks_ = out.counters.leash_ticks;
+  X_reference_offset_ = out.X_reference_offset;
 }
 
 void RunSummary::print(std::FILE* s, int frames, double motion_s, double wall_s) const {
@@ -74,6 +76,14 @@ void RunSummary::print(std::FILE* s, int frames, double motion_s, double wall_s)
                     "reference: --events-csv lists them)\n", reseeds_, first_reseed_s_);
   else
     std::fprintf(s, "re-seeds              0\n");
+  if (leash_ticks_ > 0) {
+    const Eigen::Vector3d x = X_reference_offset_.linear().col(0);
+    std::fprintf(s, "reference leash       moved the reference on %llu ticks; at the end by (%.3f, %.3f, %.3f) m "
+                    "and %.3f rad of heading\n",
+                 static_cast<unsigned long long>(leash_ticks_), X_reference_offset_.translation().x(),
+                 X_reference_offset_.translation().y(), X_reference_offset_.translation().z(),
+                 std::atan2(x.y(), x.x()));
+  }
   std::fprintf(s, "time per tick         %.1f µs (filter only)\n",
                ticks_ ? 1e6 * tick_time_sum_s_ / ticks_ : 0.0);
   std::fprintf(s, "time per frame        %.1f µs (everything, with I/O); %.0f× real time\n",

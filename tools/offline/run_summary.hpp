@@ -1,6 +1,7 @@
 #pragma once
 // Statistics gathered over an offline run and the closing summary printed from them.
 
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -42,6 +43,8 @@ class RunSummary {
   int ticks_with_pulling_ = 0;
   int reseeds_ = 0;
   double first_reseed_s_ = 0.0;
+  std::uint64_t leash_ticks_ = 0;
+  Eigen::Isometry3d X_reference_offset_ = Eigen::Isometry3d::Identity();
 };
 
 }  // namespace dynfilter::tools

@@ -91,6 +91,10 @@ class BalanceLayer {
   /// is not valid for the model (nothing kept). No allocation.
   bool pushPreview(IDynamicsModel& model, const ReferenceFrame& frame);
   void clearPreview() { size_ = 0; }
+  /// Moves the preview by the rigid motion @p X_WW' (world; the reference leash): CoM,
+  /// its velocity, angular momentum and support polygons (their points taken on the ground
+  /// of the last prepare(), z = 0 before one). No allocation.
+  void transformPreview(const Eigen::Isometry3d& X_WW);
   int previewSize() const { return size_; }
 
   /// Start of a tick, with @p model posed at @p reference: the reference's centroidal

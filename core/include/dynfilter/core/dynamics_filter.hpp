@@ -99,6 +99,11 @@ class DynamicsFilter {
   Eigen::VectorXd q_, v_;
   ReferenceFrame last_reference_;
   bool has_reference_ = false;
+  // The reference leash: the rigid motion applied to every reference frame (world).
+  Eigen::Isometry3d X_leash_ = Eigen::Isometry3d::Identity();
+  ReferenceFrame preview_frame_;  // a preview frame moved by X_leash_
+  // Moves last_reference_ (already leashed) so that it is within the leash of the state.
+  void followWithLeash();
 
   VirtualLinkSet links_;
   ContactList candidates_;

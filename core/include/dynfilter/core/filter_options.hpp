@@ -186,6 +186,19 @@ struct BalanceOptions {
   double roll_tilt_rad = 0.1;
 };
 
+/// The reference leash (reference_leash.hpp; off by default): a heading lag beyond
+/// `max_heading_rad` and a base offset along the ground beyond `max_offset_m` move the
+/// reference (and its preview) rigidly towards the figure instead of growing until the
+/// divergence guard re-seeds. The figure then follows the reference's motion from where it stands: no
+/// teleport for a turn or a drift it did not follow; falls still re-seed. Joint tracking is
+/// unaffected; base and task-point targets move with the reference
+/// (FilterOutput::X_reference_offset says by how much).
+struct LeashOptions {
+  bool enabled = false;
+  double max_offset_m = 0.1;      ///< base offset along the ground (m), > 0
+  double max_heading_rad = 0.17;  ///< heading lag (rad), > 0
+};
+
 struct FilterOptions {
   double dt_s = 1e-3;  ///< control tick (s)
   FilterMode mode = FilterMode::kPaper;
@@ -196,6 +209,7 @@ struct FilterOptions {
   PaperSolverOptions solver;
   DivergenceOptions divergence;
   BalanceOptions balance;
+  LeashOptions leash;
 
   /// Throws std::invalid_argument naming the option when a value is out of range.
   void validate() const;

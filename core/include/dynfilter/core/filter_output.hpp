@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "dynfilter/core/types.hpp"
 
@@ -67,6 +68,7 @@ struct FilterCounters {
   std::uint64_t pivot_ticks = 0;          ///< QP mode: ticks with a sole pivoting (ContactOutput::pivot)
   std::uint64_t slide_ticks = 0;          ///< QP mode: ticks with a contact sliding (ContactOutput::slide_W)
   std::uint64_t qp_iterations = 0;        ///< QP mode: total solver iterations
+  std::uint64_t leash_ticks = 0;          ///< ticks on which the reference leash moved the reference
 };
 
 /// Kinds of virtual link, by the number of constrained axes of the contact frame.
@@ -112,6 +114,10 @@ struct FilterOutput {
   double tick_time_s = 0.0;      ///< the whole tick
   double max_penetration_m = 0.0;
   ReseedReason reseed_reason = ReseedReason::kNone;  ///< this tick's, with kStatusReseeded
+  /// The rigid motion the reference leash (LeashOptions) has applied to the reference so
+  /// far, X_WW' (world): the reference this tick tracked is the one received moved by it.
+  /// Identity without the leash.
+  Eigen::Isometry3d X_reference_offset = Eigen::Isometry3d::Identity();
   /// With kStatusReferenceInfeasible: why (InfeasibleReason of balance.hpp; 0 none).
   int infeasible_reason = 0;
   /// QP mode with the balance layer: centre of mass of the filtered state and of the
