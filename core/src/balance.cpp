@@ -278,6 +278,8 @@ bool BalanceLayer::pushPreview(IDynamicsModel& model, const ReferenceFrame& fram
 
 void BalanceLayer::transformPreview(const Eigen::Isometry3d& X_WW) {
   const Eigen::Matrix3d& R = X_WW.linear();
+  // A turn about the vertical turns each segment's CoP excess with it: the cache stays.
+  const bool about_vertical = (R.col(2) - Eigen::Vector3d::UnitZ()).norm() < 1e-12;
   for (int i = 0; i < size_; ++i) {
     Sample& s = ring_[ringIndex(i)];
     s.c = X_WW * s.c;
@@ -287,7 +289,10 @@ void BalanceLayer::transformPreview(const Eigen::Isometry3d& X_WW) {
       Eigen::Vector2d& p = s.support[static_cast<std::size_t>(k)];
       p = (X_WW * Eigen::Vector3d(p.x(), p.y(), groundHeight(p))).head<2>();
     }
-    s.excess_key.fill(std::numeric_limits<double>::quiet_NaN());  // recomputed where moved
+    if (about_vertical)
+      s.excess = R.topLeftCorner<2, 2>() * s.excess;
+    else
+      s.excess_key.fill(std::numeric_limits<double>::quiet_NaN());
   }
 }
 
