@@ -36,7 +36,7 @@ py::dict countersDict(const FilterCounters& c) {
                   py::arg("links_released") = c.links_released, py::arg("qp_solves") = c.qp_solves,
                   py::arg("qp_fallbacks") = c.qp_fallbacks, py::arg("qp_relaxed") = c.qp_relaxed,
                   py::arg("qp_iterations") = c.qp_iterations, py::arg("pivot_ticks") = c.pivot_ticks,
-                  py::arg("slide_ticks") = c.slide_ticks);
+                  py::arg("slide_ticks") = c.slide_ticks, py::arg("leash_ticks") = c.leash_ticks);
 }
 
 // Growing row-major table of one quantity: rows × width doubles.
@@ -176,6 +176,7 @@ py::dict outputDict(const FilterOutput& out) {
   d["solve_time_s"] = out.solve_time_s;
   d["tick_time_s"] = out.tick_time_s;
   d["reseed_reason"] = static_cast<int>(out.reseed_reason);
+  d["X_reference_offset"] = Eigen::Matrix4d(out.X_reference_offset.matrix());
   py::list contacts;
   for (int c = 0; c < out.num_contacts; ++c) {
     const ContactOutput& k = out.contacts[static_cast<std::size_t>(c)];
@@ -375,7 +376,8 @@ void bindFilter(py::module_& m) {
            "Never raises on a bad frame: it is replaced by the last valid one and flagged in "
            "status (bit 8). Returns a dict: time, status, q, v, vdot, tau, tracking_error, "
            "task_error, eq12_residual, base_residual_n, max_penetration_m, solve_time_s, "
-           "tick_time_s, reseed_reason, contacts (list of dicts), counters.")
+           "tick_time_s, reseed_reason, X_reference_offset (4x4: the reference leash's motion "
+           "so far, identity without it), contacts (list of dicts), counters.")
       .def_property_readonly("q", &Filter::q)
       .def_property_readonly("v", &Filter::v)
       .def_property_readonly("dt_s", &Filter::dt);

@@ -125,6 +125,26 @@ def test_step_by_step_matches_filter_motion_at_the_frame_rate(model):
     assert len(out["contacts"]) == whole["num_contacts"][n - 1]
 
 
+def test_the_leash_moves_a_reference_that_stands_away(model):
+    # The squat's base 0.3 m ahead of the state: the leash (max_offset_m 0.1) moves the
+    # reference back by 0.2 m on the first tick and says so.
+    ref = dynfilter.read_reference(str(SQUAT), model)
+    f = dynfilter.Filter(model, dynfilter.config({"mode": "paper", "leash": {"enabled": True}}))
+    f.reset(ref.q[0], ref.v[0], ref.vdot[0], time=ref.time[0])
+    q = np.array(ref.q[1])
+    q[0] += 0.3
+    out = f.step(ref.time[1], q, ref.v[1], ref.vdot[1])
+    X = out["X_reference_offset"]
+    assert X.shape == (4, 4)
+    assert abs(X[0, 3] + 0.2) < 1e-3 and abs(X[1, 3]) < 1e-3
+    assert np.allclose(X[:3, :3], np.eye(3), atol=1e-9)
+    assert out["counters"]["leash_ticks"] == 1
+    plain = dynfilter.Filter(model, dynfilter.config({"mode": "paper"}))
+    plain.reset(ref.q[0], ref.v[0], ref.vdot[0], time=ref.time[0])
+    still = plain.step(ref.time[1], q, ref.v[1], ref.vdot[1])
+    assert np.array_equal(still["X_reference_offset"], np.eye(4)) and still["counters"]["leash_ticks"] == 0
+
+
 def test_model_dynamics_agree_between_backends(model):
     ode = dynfilter.Model(str(MODEL), "ode")
     rng = np.random.default_rng(3)
