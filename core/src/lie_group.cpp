@@ -103,6 +103,10 @@ Vector6d logSE3(const Eigen::Isometry3d& X) {
   return twist;
 }
 
+void moveBase(const Eigen::Isometry3d& X_WW, Eigen::Ref<Eigen::VectorXd> q) {
+  setBasePoseInConfiguration(X_WW * basePoseFromConfiguration(q), q);
+}
+
 Eigen::Isometry3d basePoseFromConfiguration(const Eigen::Ref<const Eigen::VectorXd>& q) {
   Eigen::Quaterniond quat(q[3], q[4], q[5], q[6]);
   quat.normalize();

@@ -2,23 +2,15 @@
 
 #include <cmath>
 
-#include "dynfilter/core/lie_group.hpp"
-
 namespace dynfilter {
-namespace {
-
-Eigen::Matrix3d baseRotation(const Eigen::Ref<const Eigen::VectorXd>& q) {
-  return Eigen::Quaterniond(q[3], q[4], q[5], q[6]).normalized().toRotationMatrix();
-}
-
-}  // namespace
 
 Eigen::Isometry3d leashMotion(const LeashOptions& options, const Eigen::Vector3d& n_W,
                               const Eigen::Ref<const Eigen::VectorXd>& q_filter,
                               const Eigen::Ref<const Eigen::VectorXd>& q_reference) {
   Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
   if (!options.enabled) return X;
-  const TiltHeading error = tiltAndHeading(baseRotation(q_filter), baseRotation(q_reference));
+  const TiltHeading error = tiltAndHeading(basePoseFromConfiguration(q_filter).linear(),
+                                           basePoseFromConfiguration(q_reference).linear());
   const Eigen::Vector3d p_ref = q_reference.head<3>();
   const double excess_rad = std::abs(error.heading_rad) - options.max_heading_rad;
   if (excess_rad > 0.0) {
@@ -31,13 +23,6 @@ Eigen::Isometry3d leashMotion(const LeashOptions& options, const Eigen::Vector3d
   if (distance_m > options.max_offset_m)
     X.pretranslate(-(distance_m - options.max_offset_m) / distance_m * offset);
   return X;
-}
-
-void moveBase(const Eigen::Isometry3d& X_WW, Eigen::Ref<Eigen::VectorXd> q) {
-  const Eigen::Vector3d p = q.head<3>();
-  q.head<3>() = X_WW * p;
-  const Eigen::Quaterniond quat(Eigen::Quaterniond(X_WW.linear()) * Eigen::Quaterniond(q[3], q[4], q[5], q[6]));
-  q.segment<4>(3) << quat.w(), quat.x(), quat.y(), quat.z();
 }
 
 }  // namespace dynfilter

@@ -87,12 +87,7 @@ bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s,
   placed_.q = frame.q;  // same sizes (checked above): no allocation
   placed_.v = frame.v;
   placed_.vdot = frame.vdot;
-  if (floating) {
-    placed_.q.head<3>() = X_WS_ * Eigen::Vector3d(frame.q.head<3>());
-    const Eigen::Quaterniond R_SB(frame.q[3], frame.q[4], frame.q[5], frame.q[6]);
-    const Eigen::Quaterniond R_WB = Eigen::Quaterniond(X_WS_.linear()) * R_SB;
-    placed_.q.segment<4>(3) << R_WB.w(), R_WB.x(), R_WB.y(), R_WB.z();
-  }
+  if (floating) moveBase(X_WS_, placed_.q);
   // Soft start: q ⊕ w d with w = 1 − s(τ), s the quintic 0 → 1 over the blend time.
   if (starts) {
     if (options_.stream_blend_s > 0.0) differenceConfiguration(floating, placed_.q, robot, blend_offset_);

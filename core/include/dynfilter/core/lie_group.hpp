@@ -41,6 +41,10 @@ Eigen::Isometry3d basePoseFromConfiguration(const Eigen::Ref<const Eigen::Vector
 /// Writes X_WB into the first 7 entries of q (quaternion as w, x, y, z; w ≥ 0 not enforced).
 void setBasePoseInConfiguration(const Eigen::Isometry3d& X_WB, Eigen::Ref<Eigen::VectorXd> q);
 
+/// Moves the base pose in a floating-base q by the rigid motion X_WW' (world): X_WB ← X_WW' X_WB.
+/// Joints, and the base-frame velocities that go with q, are unchanged.
+void moveBase(const Eigen::Isometry3d& X_WW, Eigen::Ref<Eigen::VectorXd> q);
+
 /// q_out = q ⊕ (v·dt): base by `X_WB * expSE3(v_base * dt)`, joints by `q + v dt`.
 /// @param floating_base whether q/v carry the 7/6 base coordinates in front
 /// @param q      dim nq

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "dynfilter/core/filter_options.hpp"
+#include "dynfilter/core/lie_group.hpp"  // moveBase, to apply the motion
 
 namespace dynfilter {
 
@@ -23,10 +24,5 @@ namespace dynfilter {
 Eigen::Isometry3d leashMotion(const LeashOptions& options, const Eigen::Vector3d& n_W,
                               const Eigen::Ref<const Eigen::VectorXd>& q_filter,
                               const Eigen::Ref<const Eigen::VectorXd>& q_reference);
-
-/// Moves the base pose of a floating-base configuration (q = [p_WB; quat_WB (w, x, y, z);
-/// joints]) by @p X_WW': p ← X p, R ← X.linear() R. Joints (and the base-frame velocities
-/// that go with q) are unchanged.
-void moveBase(const Eigen::Isometry3d& X_WW, Eigen::Ref<Eigen::VectorXd> q);
 
 }  // namespace dynfilter
