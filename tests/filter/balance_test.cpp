@@ -197,6 +197,17 @@ TEST(Balance, TheDcmTargetOfAReferenceInsideItsSupportIsItsOwnDcm) {
   EXPECT_LT(worst, 1e-9);
 }
 
+// The standing pose @p q0 swaying along x by a sin(w t), with its velocity and acceleration.
+ReferenceFrame swayingFrame(const ModelInfo& info, const Eigen::VectorXd& q0, double a, double w, double t) {
+  ReferenceFrame f(info.nq, info.nv);
+  f.time_s = t;
+  f.q = q0;
+  f.q[0] += a * std::sin(w * t);
+  f.v[0] = a * w * std::cos(w * t);
+  f.vdot[0] = -a * w * w * std::sin(w * t);
+  return f;
+}
+
 // The backward pass reuses each segment's CoP excess while its samples stay (offline the
 // window holds seconds of samples that every tick shares). A reference swaying 8 cm at
 // 1.5 Hz needs a CoP outside its soles, so the excesses are not zero; the layer prepared tick
@@ -212,15 +223,7 @@ TEST(Balance, TheCachedBackwardPassGivesTheTargetOfAFreshLayer) {
   Eigen::VectorXd q0 = info.neutralConfiguration();
   q0[2] = standingBaseHeight(*flat, q0);
   const double a = 0.08, w = 3.0 * M_PI;
-  auto frameAt = [&](double t) {
-    ReferenceFrame f(info.nq, info.nv);
-    f.time_s = t;
-    f.q = q0;
-    f.q[0] += a * std::sin(w * t);
-    f.v[0] = a * w * std::cos(w * t);
-    f.vdot[0] = -a * w * w * std::sin(w * t);
-    return f;
-  };
+  auto frameAt = [&](double t) { return swayingFrame(info, q0, a, w, t); };
   BalanceOptions options;
   options.preview_s = 10.0;
   options.preview_capacity = 1024;
@@ -264,15 +267,7 @@ TEST(Balance, APreviewMovedByTheLeashGivesTheTargetOfTheMovedReference) {
   Eigen::VectorXd q0 = info.neutralConfiguration();
   q0[2] = standingBaseHeight(*model, q0);
   const double a = 0.08, w = 3.0 * M_PI;  // a CoP outside the soles: the excesses matter
-  auto frameAt = [&](double t) {
-    ReferenceFrame f(info.nq, info.nv);
-    f.time_s = t;
-    f.q = q0;
-    f.q[0] += a * std::sin(w * t);
-    f.v[0] = a * w * std::cos(w * t);
-    f.vdot[0] = -a * w * w * std::sin(w * t);
-    return f;
-  };
+  auto frameAt = [&](double t) { return swayingFrame(info, q0, a, w, t); };
   const Eigen::Isometry3d X = Eigen::Translation3d(0.3, -0.2, 0.0) *
                               Eigen::AngleAxisd(0.6, Eigen::Vector3d::UnitZ()) *
                               Eigen::Translation3d(-0.1, 0.05, 0.0);
