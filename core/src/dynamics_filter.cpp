@@ -100,6 +100,9 @@ void DynamicsFilter::reset(const ReferenceFrame& reference) {
   if (reference.vdot.size() != nv_ || !reference.vdot.allFinite())
     throw InvalidStateError("reference acceleration must have nv = " + std::to_string(nv_) +
                             " finite entries");
+  // The leash starts over; preview frames already moved by it are moved back.
+  if (balance_ && !X_leash_.isApprox(Eigen::Isometry3d::Identity(), 0.0))
+    balance_->transformPreview(X_leash_.inverse());
   X_leash_.setIdentity();
   out_.X_reference_offset.setIdentity();
   last_reference_.time_s = reference.time_s;

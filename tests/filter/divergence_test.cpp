@@ -179,6 +179,13 @@ TEST_F(Divergence, TheLeashFollowsADriftAndATurnInsteadOfReseeding) {
   EXPECT_NEAR(largest_offset, options.leash.max_offset_m, 1e-9);
   EXPECT_NEAR(largest_heading, options.leash.max_heading_rad, 1e-9);
   EXPECT_GT(filter.output().counters.leash_ticks, 100u);
+  // A reset starts the leash over: the reference is tracked as received again.
+  const std::uint64_t leash_ticks = filter.output().counters.leash_ticks;
+  filter.reset(drifting.back());
+  EXPECT_TRUE(filter.output().X_reference_offset.isApprox(Eigen::Isometry3d::Identity(), 0.0));
+  filter.step(drifting.back());
+  EXPECT_EQ(filter.output().counters.leash_ticks, leash_ticks);
+  EXPECT_TRUE(filter.output().X_reference_offset.isApprox(Eigen::Isometry3d::Identity(), 0.0));
 }
 
 }  // namespace
