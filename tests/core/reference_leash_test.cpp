@@ -78,7 +78,7 @@ TEST(ReferenceLeash, OnASlopeTheMotionKeepsTheGroundAndBothBoundsHold) {
   options.max_heading_rad = 0.25;
   const Eigen::Isometry3d X = leashMotion(options, n, filter, reference);
   EXPECT_LT((X.linear() * n - n).norm(), 1e-14) << "turns about the ground's normal";
-  for (const Eigen::Vector3d p : {Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(3.0, -1.0, 2.0),
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(3.0, -1.0, 2.0),
                                   Eigen::Vector3d(-2.0, 4.0, -0.5)})
     EXPECT_NEAR(n.dot(X * p), n.dot(p), 1e-13) << "every point keeps its height above the ground";
   moveBase(X, reference);
