@@ -23,7 +23,6 @@ StreamOptions streamOptions(const RealtimeOptions& options, double silence_s) {
 // A play time held back (a late sender) catches up at most this fast (× real time).
 constexpr double kCatchUpRate = 1.5;
 
-
 }  // namespace
 
 RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,

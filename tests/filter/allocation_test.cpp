@@ -20,7 +20,6 @@
 #include "dynfilter/core/dynamics_simulator.hpp"
 #include "dynfilter/core/ground_contacts.hpp"
 #include "dynfilter/core/model_sampling.hpp"
-#include "dynfilter/core/reference_leash.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
 #include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
@@ -190,12 +189,7 @@ TEST(Allocation, TheLeashAllocatesNothingInTheCore) {
   if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
   auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   std::vector<ReferenceFrame> frames = test::simulateStandingSway(*dart, 0.4, 1e-3);
-  const Eigen::Vector3d p0 = frames.front().q.head<3>();
-  for (ReferenceFrame& f : frames) {
-    const Eigen::Isometry3d X = Eigen::Translation3d(p0 + Eigen::Vector3d(0.5 * f.time_s, 0.0, 0.0)) *
-                                Eigen::AngleAxisd(f.time_s, Eigen::Vector3d::UnitZ()) * Eigen::Translation3d(-p0);
-    moveBase(X, f.q);
-  }
+  test::walkOffAndTurn(frames, 0.5, 1.0);
   MeasuredModel model(*dart);
   FilterOptions options;
   options.mode = FilterMode::kQp;

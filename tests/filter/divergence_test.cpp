@@ -8,7 +8,6 @@
 
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/lie_group.hpp"
-#include "dynfilter/core/reference_leash.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/reference_motions.hpp"
 #include "support/test_support.hpp"
@@ -148,13 +147,7 @@ TEST(DivergenceOptions, InvalidBoundsAreRejectedByName) {
 // (on every tick, to rounding), and nothing re-seeds.
 TEST_F(Divergence, TheLeashFollowsADriftAndATurnInsteadOfReseeding) {
   std::vector<ReferenceFrame> drifting = frames_;
-  const Eigen::Vector3d p0 = frames_.front().q.head<3>();
-  for (ReferenceFrame& f : drifting) {
-    const double t = f.time_s - frames_.front().time_s;
-    const Eigen::Isometry3d X = Eigen::Translation3d(p0 + Eigen::Vector3d(2.0 * t, 0.0, 0.0)) *
-                                Eigen::AngleAxisd(4.0 * t, Eigen::Vector3d::UnitZ()) * Eigen::Translation3d(-p0);
-    moveBase(X, f.q);
-  }
+  test::walkOffAndTurn(drifting, 2.0, 4.0);
   {
     DynamicsFilter plain(*model_, FilterOptions{});
     plain.reset(drifting.front());

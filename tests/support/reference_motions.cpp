@@ -3,9 +3,12 @@
 #include <cmath>
 #include <fstream>
 
+#include <Eigen/Geometry>
+
 #include <nlohmann/json.hpp>
 
 #include "dynfilter/core/dynamics_simulator.hpp"
+#include "dynfilter/core/lie_group.hpp"
 #include "support/test_support.hpp"
 
 namespace dynfilter::test {
@@ -82,6 +85,19 @@ std::vector<ReferenceFrame> simulateStandingSway(IDynamicsModel& model, double s
     frames.push_back(std::move(frame));
   }
   return frames;
+}
+
+void walkOffAndTurn(std::vector<ReferenceFrame>& frames, double speed_mps, double turn_rate_radps) {
+  if (frames.empty()) return;
+  const Eigen::Vector3d p0 = frames.front().q.head<3>();
+  const double t0 = frames.front().time_s;
+  for (ReferenceFrame& f : frames) {
+    const double t = f.time_s - t0;
+    const Eigen::Isometry3d X = Eigen::Translation3d(p0 + Eigen::Vector3d(speed_mps * t, 0.0, 0.0)) *
+                                Eigen::AngleAxisd(turn_rate_radps * t, Eigen::Vector3d::UnitZ()) *
+                                Eigen::Translation3d(-p0);
+    moveBase(X, f.q);
+  }
 }
 
 }  // namespace dynfilter::test

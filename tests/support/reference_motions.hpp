@@ -21,4 +21,9 @@ std::vector<ReferenceFrame> simulateStandingSway(IDynamicsModel& model, double s
                                                  double dt, double squat_amplitude = 0.15,
                                                  double frequency_hz = 0.5, int substeps = 5);
 
+/// Moves each frame's base so that the motion walks off along world x at @p speed_mps and
+/// turns about the vertical through the first frame's base at @p turn_rate_radps, both from
+/// the first frame's time (velocities unchanged: a reference the figure cannot follow).
+void walkOffAndTurn(std::vector<ReferenceFrame>& frames, double speed_mps, double turn_rate_radps);
+
 }  // namespace dynfilter::test

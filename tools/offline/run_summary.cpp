@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dynfilter/core/lie_group.hpp"
+
 namespace dynfilter::tools {
 
 RunSummary::RunSummary(const ModelInfo& info, const std::vector<JointGroup>& joint_groups)
@@ -77,12 +79,11 @@ void RunSummary::print(std::FILE* s, int frames, double motion_s, double wall_s)
   else
     std::fprintf(s, "re-seeds              0\n");
   if (leash_ticks_ > 0) {
-    const Eigen::Vector3d x = X_reference_offset_.linear().col(0);
     std::fprintf(s, "reference leash       moved the reference on %llu ticks; at the end by (%.3f, %.3f, %.3f) m "
                     "and %.3f rad of heading\n",
                  static_cast<unsigned long long>(leash_ticks_), X_reference_offset_.translation().x(),
                  X_reference_offset_.translation().y(), X_reference_offset_.translation().z(),
-                 std::atan2(x.y(), x.x()));
+                 tiltAndHeading(Eigen::Matrix3d::Identity(), X_reference_offset_.linear()).heading_rad);
   }
   std::fprintf(s, "time per tick         %.1f µs (filter only)\n",
                ticks_ ? 1e6 * tick_time_sum_s_ / ticks_ : 0.0);
