@@ -33,7 +33,25 @@ ConstrainedDynamics::ConstrainedDynamics(int nv, int nb, int max_rows)
       X_(Eigen::MatrixXd::Zero(nv, max_rows)),
       S_(Eigen::MatrixXd::Zero(max_rows, max_rows)),
       a0_(Eigen::VectorXd::Zero(nv)),
-      r_(Eigen::VectorXd::Zero(max_rows)) {}
+      r_(Eigen::VectorXd::Zero(max_rows)),
+      basis_(Eigen::MatrixXd::Zero(nv, max_rows)),
+      H_kept_(Eigen::MatrixXd::Zero(max_rows, nv)),
+      kept_rows_(Eigen::VectorXi::Zero(max_rows)) {}
+
+bool appendIndependentRow(Eigen::Ref<Eigen::MatrixXd> basis, int& kept,
+                          const Eigen::Ref<const Eigen::RowVectorXd>& h) {
+  if (kept >= basis.cols()) return false;
+  auto w = basis.col(kept);
+  w = h.transpose();
+  const double norm = w.norm();
+  for (int pass = 0; pass < 2; ++pass)
+    for (int k = 0; k < kept; ++k) w -= basis.col(k).dot(w) * basis.col(k);
+  const double outside = w.norm();
+  if (!(outside > kDependentRowTolerance * norm)) return false;
+  w /= outside;
+  ++kept;
+  return true;
+}
 
 bool ConstrainedDynamics::factorise(const Eigen::Ref<const Eigen::MatrixXd>& A,
                                     const Eigen::Ref<const Eigen::MatrixXd>& H_C) {
@@ -84,14 +102,23 @@ bool ConstrainedDynamics::plasticImpact(const Eigen::Ref<const Eigen::MatrixXd>&
                                         Eigen::Ref<Eigen::VectorXd> impulse) {
   const int nc = static_cast<int>(H_C.rows());
   if (nc == 0) return true;
-  if (!factorise(A, H_C)) return false;
-  auto r = r_.head(nc);
-  r.noalias() = -H_C * v;
-  const auto S = S_.topLeftCorner(nc, nc);
+  int kept = 0;
+  for (int i = 0; i < nc; ++i)
+    if (appendIndependentRow(basis_, kept, H_C.row(i))) {
+      kept_rows_[kept - 1] = i;
+      H_kept_.row(kept - 1) = H_C.row(i);
+    }
+  if (kept == 0) return false;
+  const auto H = H_kept_.topRows(kept);
+  if (!factorise(A, H)) return false;
+  auto r = r_.head(kept);
+  r.noalias() = -H * v;
+  const auto S = S_.topLeftCorner(kept, kept);
   S.triangularView<Eigen::Lower>().solveInPlace(r);
   S.triangularView<Eigen::Lower>().transpose().solveInPlace(r);
-  impulse = r;
-  v.noalias() += X_.leftCols(nc) * r;
+  impulse.setZero();
+  for (int k = 0; k < kept; ++k) impulse[kept_rows_[k]] = r[k];
+  v.noalias() += X_.leftCols(kept) * r;
   return true;
 }
 

@@ -8,6 +8,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "dynfilter/core/constrained_dynamics.hpp"
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/tick_clock.hpp"
 
@@ -108,6 +109,8 @@ ContactQp::ContactQp(const ModelInfo& info, int max_links, double dt_s,
   accel_hi_.setConstant(nj_, kQpInfinity);
   M_.setZero(nj_, nv_ + max_rows);
   residual_.setZero(nv_ + max_rows);
+  basis_.setZero(nv_, max_rows);
+  row_free_.assign(static_cast<std::size_t>(max_rows), 0);
   link_bounds_.resize(static_cast<std::size_t>(max_links));
   weight_n_ = std::max(info.total_mass, 1e-9) * kStandardGravity;
   equality_tolerance_ = 1e-8 * std::max(weight_n_, kStandardGravity);
@@ -216,6 +219,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   int row = nj_;
   int slot = 0;
   num_links_ = num_links;
+  std::fill(row_free_.begin(), row_free_.end(), 0);
   const double cone_scale = std::cos(kPi / K);
   for (int i = 0; i < num_links; ++i) {
     const VirtualLink& link = links[i];
@@ -276,6 +280,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     }
     lb.yaw_slip = 0;
     lb.pivot_from_rest = false;
+    lb.rotations_free = lb.tangents_free = false;
     if (options_.yaw_slip && link.kind != ContactKind::kPoint && link.yaw_slip != 0) {
       pivot(qp, i, link.yaw_slip, /*from_rest=*/false, H_C, u_C);
     }
@@ -390,11 +395,29 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     }
     resolve(/*bounds_only=*/!rows_restored);
     report.ok = extract();
+    }
+  // No answer holds every link: the rows may be dependent with inconsistent targets (two
+  // touching bodies one joint apart), or the torque limits cannot hold them. Before the
+  // contacts break, they give way as a rigid floor does, in three re-solves at most: the
+  // rows that depend on others are freed (normal rows first, then tangents, then moments,
+  // older links first), then every edge and face tips (its moments free: it holds as a
+  // point at its origin), then every link is a frictionless point. The normal rows hold
+  // (but dependent ones), so no body passes through the floor while the floor can push.
+  for (int rung = 1; rung <= 3 && !report.ok && nc > 0; ++rung) {
+    if (rung == 1) {
+      if (freeDependentRows(qp, H_C, nc) == 0) continue;
+    } else {
+      for (int i = 0; i < num_links; ++i) freeLinkRows(qp, i, /*tangents=*/rung == 3);
+    }
+    report.floor_rung = rung;
+    resolve(/*bounds_only=*/false);
+    report.ok = extract();
+    rows_restored = true;
   }
   if (!report.ok && nc > 0) {
-    // The contacts cannot be held within the torque limits without pulling, sliding or
-    // tipping: physically they break. Solve with every link released (a QP that is always
-    // feasible: τ_J = 0 is a solution); the filter then releases the links.
+    // Even the frictionless points cannot be held without pulling: the contacts break.
+    // Solve with every link released (a QP that is always feasible: τ_J = 0 is a
+    // solution); the filter then releases the links.
     report.contacts_released = true;
     for (int k = 0; k < nc; ++k) {
       qp.A.row(nb_ + k).setZero();
@@ -407,6 +430,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     qp.x_lower.tail(cap).setConstant(-kQpInfinity);
     qp.x_upper.tail(cap).setConstant(kQpInfinity);
     num_links_ = 0;
+    report.floor_rung = 0;
     resolve(/*bounds_only=*/false);
     vdot = sc.x.head(nv_);
     tau_C.setZero();
@@ -444,6 +468,87 @@ void ContactQp::pivot(DenseQp& qp, int i, int sign, bool from_rest,
   }
   lb.yaw_slip = sign > 0 ? 1 : -1;
   lb.pivot_from_rest = from_rest;
+}
+
+void ContactQp::freeRow(DenseQp& qp, int r) {
+  // The row's force slot is held at zero; the row's motion is whatever the answer takes.
+  qp.A.row(nb_ + r).setZero();
+  qp.A(nb_ + r, nv_ + r) = 1.0;
+  qp.b[nb_ + r] = 0.0;
+  row_free_[static_cast<std::size_t>(r)] = 1;
+}
+
+void ContactQp::dropInequalityRows(DenseQp& qp, int first, int count) {
+  for (int k = first; k < first + count; ++k) {
+    qp.C.row(k).setZero();
+    qp.l[k] = -kQpInfinity;
+    qp.u[k] = kQpInfinity;
+  }
+}
+
+void ContactQp::freeLinkRows(DenseQp& qp, int i, bool tangents) {
+  LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+  if (lb.num_axes > 3 && !lb.rotations_free) {
+    for (int slot = 3; slot < lb.num_axes; ++slot) freeRow(qp, lb.row + slot);
+    dropInequalityRows(qp, lb.facet_row + options_.friction_facets, lb.num_axes == 6 ? 6 : 4);  // CoP, torsion
+    lb.rotations_free = true;
+    lb.yaw_slip = 0;
+    lb.pivot_from_rest = false;
+  }
+  if (tangents && !lb.tangents_free) {
+    for (int slot = 0; slot < 2; ++slot) freeRow(qp, lb.row + slot);
+    dropInequalityRows(qp, lb.facet_row, options_.friction_facets);
+    lb.tangents_free = true;
+    lb.slide.setZero();
+  }
+}
+
+int ContactQp::freeDependentRows(DenseQp& qp, const Eigen::Ref<const Eigen::MatrixXd>& H_C, int nc) {
+  int kept = 0, freed = 0;
+  for (const int group : {0, 1, 2}) {  // normals, tangents, moments
+    for (int i = 0; i < num_links_; ++i) {
+      LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
+      for (int slot = 0; slot < lb.num_axes; ++slot) {
+        if ((slot == 2 ? 0 : slot < 2 ? 1 : 2) != group) continue;
+        const int r = lb.row + slot;
+        if (r >= nc || row_free_[static_cast<std::size_t>(r)] || appendIndependentRow(basis_, kept, H_C.row(r)))
+          continue;
+        ++freed;
+        if (slot == 2) {  // a dependent normal: the whole link gives way
+          for (int a = 0; a < lb.num_axes; ++a)
+            if (!row_free_[static_cast<std::size_t>(lb.row + a)]) freeRow(qp, lb.row + a);
+          dropInequalityRows(qp, lb.facet_row,
+                             options_.friction_facets + (lb.num_axes == 6 ? 6 : lb.num_axes == 5 ? 4 : 0));
+          qp.x_lower[nv_ + lb.row + 2] = -kQpInfinity;
+          qp.x_upper[nv_ + lb.row + 2] = kQpInfinity;
+          lb.f_min = 0.0;
+          lb.rotations_free = lb.tangents_free = true;
+          lb.slide.setZero();
+          lb.yaw_slip = 0;
+          lb.pivot_from_rest = false;
+        } else if (slot < 2 && !lb.slide.isZero()) {  // a slide's friction needs both tangents
+          freeLinkRows(qp, i, /*tangents=*/true);
+        } else {
+          freeRow(qp, r);
+          if (lb.yaw_slip != 0 && r == yawRow(lb)) lb.yaw_slip = 0;
+        }
+      }
+    }
+  }
+  return freed;
+}
+
+bool ContactQp::rowFree(int r) const {
+  if (r < 0 || r >= static_cast<int>(row_free_.size())) return false;
+  if (row_free_[static_cast<std::size_t>(r)]) return true;
+  for (int l = 0; l < num_links_; ++l) {
+    const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(l)];
+    if (r < lb.row || r >= lb.row + lb.num_axes) continue;
+    const int slot = r - lb.row;
+    if (slot < 2) return !lb.slide.isZero();
+    return lb.yaw_slip != 0 && r == yawRow(lb);
+  }
+  return false;
 }
 
 void ContactQp::slide(DenseQp& qp, int i) {
@@ -528,15 +633,8 @@ std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
   r.noalias() -= H_C.transpose() * tau_C;
   r.tail(nj_) -= tau_J;
   if (r.cwiseAbs().maxCoeff() > equality_tolerance_) violated |= kQpFamilyEquality;
-  for (int i = 0; i < nc; ++i) {
-    bool free_row = false;  // a pivot's yaw row, a slide's tangential rows (checked below)
-    for (int l = 0; l < num_links_; ++l) {
-      const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(l)];
-      free_row = free_row || (lb.yaw_slip != 0 && i == yawRow(lb));
-      free_row = free_row || (!lb.slide.isZero() && (i == lb.row || i == lb.row + 1));
-    }
-    if (!free_row && std::abs(H_C.row(i).dot(vdot) - u_C[i]) > kAccelTolerance) violated |= kQpFamilyEquality;
-  }
+  for (int i = 0; i < nc; ++i)  // rowFree: a pivot's yaw, a slide's tangents (checked below), freed rows
+    if (!rowFree(i) && std::abs(H_C.row(i).dot(vdot) - u_C[i]) > kAccelTolerance) violated |= kQpFamilyEquality;
 
   for (int i = 0; i < num_links_; ++i) {
     const LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
@@ -550,7 +648,7 @@ std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
         (std::abs(fx + lb.mu * lb.slide.x() * fz) > kForceTolerance ||
          std::abs(fy + lb.mu * lb.slide.y() * fz) > kForceTolerance))
       violated |= kQpFamilyFriction;
-    if (lb.num_axes >= 5) {
+    if (lb.num_axes >= 5 && !lb.rotations_free) {
       const int my = lb.row + (lb.num_axes == 6 ? 4 : 3);
       if (-tau_C[my] < lb.cop_min.x() * fz - kForceTolerance || -tau_C[my] > lb.cop_max.x() * fz + kForceTolerance)
         violated |= kQpFamilyCop;
@@ -564,7 +662,7 @@ std::uint32_t ContactQp::check(const Eigen::Ref<const Eigen::MatrixXd>& A,
           violated |= kQpFamilyFriction;
       }
     }
-    if (lb.num_axes == 6) {
+    if (lb.num_axes == 6 && !lb.rotations_free) {
       const double mx = tau_C[lb.row + 3];
       if (mx < lb.cop_min.y() * fz - kForceTolerance || mx > lb.cop_max.y() * fz + kForceTolerance)
         violated |= kQpFamilyCop;

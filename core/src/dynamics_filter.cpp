@@ -441,7 +441,8 @@ std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
   out_.qp_iterations = report.info.iterations;
   out_.qp_solver_time_s = report.solver_time_s;
   out_.qp_relaxation = (report.joint_limits_dropped ? 1u : 0u) | (report.ramps_dropped ? 2u : 0u) |
-                       (report.contacts_released ? 4u : 0u);
+                       (report.contacts_released ? 4u : 0u) |
+                       (report.floor_rung > 0 ? 4u << report.floor_rung : 0u);
   out_.qp_violated = out_.qp_relaxation != 0 ? report.violated_first : report.violated;
   out_.counters.qp_iterations += static_cast<std::uint64_t>(std::max(0, report.info.iterations));
   // Pivots: a pivoting link's yaw row states the turn it took (Eq. 9 holds on the others).
@@ -456,6 +457,9 @@ std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
   }
   const std::uint32_t capped =
       report.info.status == QpSolveStatus::kMaxIterations ? kStatusQpIterationLimit : kStatusOk;
+  if (report.ok && report.floor_rung > 0)
+    for (int r = 0; r < links_.numRows(); ++r)  // a freed row states the motion it took
+      if (contact_qp_->rowFree(r)) u_C[r] = H_C.row(r).dot(vdot_solved_);
   if (report.ok) {
     ++out_.counters.qp_solves;
     if (out_.qp_relaxation == 0) return capped;

@@ -101,5 +101,47 @@ TEST(ConstrainedDynamics, PlasticImpactStopsTheConstrainedMotionAndLosesEnergy) 
   EXPECT_LT((A * (v_plus - v) - H.transpose() * impulse).norm(), 1e-9);
 }
 
+// Rows that depend on others ask nothing more: with the foot's six rows given twice, and a
+// seventh row that is a sum of two of them, the impact is the one of the six rows alone
+// (the velocity is unique; the dependent rows get no impulse).
+TEST(ConstrainedDynamics, DependentImpactRowsGiveTheImpactOfTheIndependentOnes) {
+  std::mt19937 rng(9);
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  Eigen::VectorXd q, v;
+  test::randomState(*model, rng, 1.0, q, v);
+  model->setState(q, v);
+  const int nv = model->nv();
+  Eigen::MatrixXd A(nv, nv);
+  model->massMatrix(A);
+  Matrix6Xd J(6, nv);
+  model->pointJacobian(model->info().findBody("r_foot"), Eigen::Vector3d(0.1, 0, -0.06), J);
+  Eigen::MatrixXd H(13, nv);
+  H << J, J, J.row(0) + 2.0 * J.row(4);
+  ConstrainedDynamics cd(nv, 6, 48);
+  Eigen::VectorXd v_six = v, v_all = v, impulse_six(6), impulse_all(13);
+  ASSERT_TRUE(cd.plasticImpact(A, J, v_six, impulse_six));
+  ASSERT_TRUE(cd.plasticImpact(A, H, v_all, impulse_all));
+  EXPECT_LT((v_all - v_six).norm(), 1e-9 * v.norm());
+  EXPECT_LT((impulse_all.head(6) - impulse_six).norm(), 1e-9 * impulse_six.norm());
+  EXPECT_EQ(impulse_all.tail(7).norm(), 0.0);
+  EXPECT_LT((H * v_all).norm(), 1e-9);
+}
+
+TEST(ConstrainedDynamics, AppendIndependentRowKeepsARankRevealingBasis) {
+  Eigen::MatrixXd basis = Eigen::MatrixXd::Zero(4, 4);
+  int kept = 0;
+  Eigen::RowVectorXd a(4), b(4);
+  a << 1, 2, 0, 0;
+  b << 0, 1, 1, 0;
+  EXPECT_TRUE(appendIndependentRow(basis, kept, a));
+  EXPECT_TRUE(appendIndependentRow(basis, kept, b));
+  EXPECT_FALSE(appendIndependentRow(basis, kept, 3.0 * a - b));
+  EXPECT_FALSE(appendIndependentRow(basis, kept, a + (1e-8 * b)));  // within 1e-6 of the span
+  EXPECT_FALSE(appendIndependentRow(basis, kept, Eigen::RowVectorXd::Zero(4)));
+  EXPECT_TRUE(appendIndependentRow(basis, kept, a + Eigen::RowVectorXd::Unit(4, 3) * 1e-3));
+  EXPECT_EQ(kept, 3);
+  EXPECT_LT((basis.leftCols(3).transpose() * basis.leftCols(3) - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+}
+
 }  // namespace
 }  // namespace dynfilter

@@ -26,6 +26,18 @@ Eq12Residual eq12Residual(const Eigen::Ref<const Eigen::MatrixXd>& A,
                           const Eigen::Ref<const Eigen::VectorXd>& tau_J,
                           Eigen::Ref<Eigen::VectorXd> scratch);
 
+/// Relative size below which a constraint row counts as dependent on others: the part of
+/// the row outside their span, over the row's norm.
+constexpr double kDependentRowTolerance = 1e-6;
+
+/// Builds an orthonormal basis of constraint rows one row at a time (Gram-Schmidt,
+/// orthogonalised twice for round-off): appends @p h (a row of length n) as column @p kept
+/// of @p basis (n × capacity) when its part outside columns 0..kept−1 exceeds
+/// kDependentRowTolerance of its norm, and increments @p kept. Returns whether it did;
+/// false for a row that depends on those kept (or is zero). Does not allocate.
+bool appendIndependentRow(Eigen::Ref<Eigen::MatrixXd> basis, int& kept,
+                          const Eigen::Ref<const Eigen::RowVectorXd>& h);
+
 /// Eq. 14 and the plastic impact, with buffers allocated once.
 class ConstrainedDynamics {
  public:
@@ -42,7 +54,10 @@ class ConstrainedDynamics {
 
   /// Plastic impact on every constrained axis: v⁺ = v − A⁻¹ H_Cᵀ (H_C A⁻¹ H_Cᵀ)⁻¹ H_C v,
   /// the velocity closest to v in the kinetic-energy metric with H_C v⁺ = 0. Writes the
-  /// impulse (N s, N m s, per constrained axis) to @p impulse. Returns false if singular.
+  /// impulse (N s, N m s, per constrained axis) to @p impulse. Dependent rows (e.g. two
+  /// touching bodies one joint apart) ask nothing the others do not: the impact is taken
+  /// on the rows that are independent in order, the others get no impulse. Returns false
+  /// if A is not positive definite.
   bool plasticImpact(const Eigen::Ref<const Eigen::MatrixXd>& A,
                      const Eigen::Ref<const Eigen::MatrixXd>& H_C, Eigen::Ref<Eigen::VectorXd> v,
                      Eigen::Ref<Eigen::VectorXd> impulse);
@@ -57,6 +72,9 @@ class ConstrainedDynamics {
   Eigen::MatrixXd X_;  // nv × N_C
   Eigen::MatrixXd S_;  // N_C × N_C Cholesky of H_C A⁻¹ H_Cᵀ
   Eigen::VectorXd a0_, r_;
+  Eigen::MatrixXd basis_;      // nv × max_rows: orthonormal basis of the rows kept
+  Eigen::MatrixXd H_kept_;     // max_rows × nv: the independent rows of an impact
+  Eigen::VectorXi kept_rows_;  // max_rows: their indices in H_C
 };
 
 }  // namespace dynfilter

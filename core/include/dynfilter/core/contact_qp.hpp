@@ -76,7 +76,12 @@ struct ContactQpReport {
   ///    each flag set when the problem had such bounds;
   bool joint_limits_dropped = false;
   bool ramps_dropped = false;
-  /// 2. every virtual link released (the contacts break): the caller must release them.
+  /// 2. the links give way as a rigid floor does, each rung keeping the one before; the
+  ///    last rung used (0 none): 1 the rows that depend on others are freed, 2 every edge
+  ///    and face tips (its moments free; it holds as a point at its origin), 3 every link
+  ///    is a frictionless point. The normal rows hold; rowFree() names the rows given up.
+  int floor_rung = 0;
+  /// 3. every virtual link released (the contacts break): the caller must release them.
   bool contacts_released = false;
   std::uint32_t violated_first = kQpFamilyNone;  ///< families the first (full) attempt violated
 };
@@ -142,6 +147,10 @@ class ContactQp {
   /// its twist m_z = σ μ r f_z (VirtualLink::yaw_slip).
   int yawSlip(int i) const { return i < num_links_ ? link_bounds_[static_cast<std::size_t>(i)].yaw_slip : 0; }
 
+  /// Row @p r of H_C (the last solve's numbering) holds no equality in the answer: a
+  /// pivoting link's yaw, a sliding link's tangents, or a row a relaxation freed.
+  bool rowFree(int r) const;
+
   /// Joint acceleration bounds of the last solve (dim nj; ±kQpInfinity when unbounded).
   const Eigen::VectorXd& jointAccelLower() const { return accel_lo_; }
   const Eigen::VectorXd& jointAccelUpper() const { return accel_hi_; }
@@ -180,7 +189,21 @@ class ContactQp {
     bool pivot_from_rest = false;  // ... and the yaw acceleration opposes the twist
     int facet_row = 0;           // first friction-pyramid row in C
     Eigen::Vector2d slide = Eigen::Vector2d::Zero();  // sliding: f_t = −μ f_z ŝ (VirtualLink::slide_A)
+    bool rotations_free = false;  // relaxed: its moments are zero, it holds as a point
+    bool tangents_free = false;   // relaxed: its tangential force is zero (no friction)
   };
+  // Relaxation: frees row @p r of H_C (its force slot held at zero; rowFree(r) then true).
+  void freeRow(DenseQp& qp, int r);
+  // Relaxation: unbounds @p count inequality rows of C from @p first.
+  void dropInequalityRows(DenseQp& qp, int first, int count);
+  // Relaxation: frees link @p i's moment rows (and with @p tangents its tangential rows),
+  // with the inequality rows that bound them.
+  void freeLinkRows(DenseQp& qp, int i, bool tangents);
+  // Relaxation: frees the rows of H_C (top @p nc) that depend on rows of higher precedence
+  // (normals, then tangents, then moments; older links first). Returns the number freed.
+  int freeDependentRows(DenseQp& qp, const Eigen::Ref<const Eigen::MatrixXd>& H_C, int nc);
+  Eigen::MatrixXd basis_;          // nv × capacity: orthonormal basis of the rows kept
+  std::vector<char> row_free_;     // capacity: rows freed by a relaxation this solve
   // Makes link @p i slide along lb.slide: its tangential rows become Coulomb's kinetic
   // friction, and its friction pyramid gives way.
   void slide(DenseQp& qp, int i);

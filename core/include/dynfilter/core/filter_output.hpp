@@ -130,7 +130,9 @@ struct FilterOutput {
   double qp_solver_time_s = 0.0;    ///< of solve_time_s, the time inside the QP engine
   std::uint32_t qp_violated = 0;    ///< QpConstraintFamily bits the full QP's answer violated
   /// Relaxations used this tick (bits): 1 joint-limit bounds dropped, 2 release ramps
-  /// dropped, 4 contacts released.
+  /// dropped, 4 contacts released; before that, the floor's rungs (ContactQpReport::
+  /// floor_rung): 8 dependent contact rows freed, 16 every edge and face tipped
+  /// (held as points), 32 every link a frictionless point.
   std::uint32_t qp_relaxation = 0;
   FilterCounters counters;
 
