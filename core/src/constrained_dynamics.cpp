@@ -39,7 +39,7 @@ ConstrainedDynamics::ConstrainedDynamics(int nv, int nb, int max_rows)
       kept_rows_(Eigen::VectorXi::Zero(max_rows)) {}
 
 bool appendIndependentRow(Eigen::Ref<Eigen::MatrixXd> basis, int& kept,
-                          const Eigen::Ref<const Eigen::RowVectorXd>& h) {
+                          const Eigen::Ref<const Eigen::RowVectorXd, 0, Eigen::InnerStride<>>& h) {
   if (kept >= basis.cols()) return false;
   auto w = basis.col(kept);
   w = h.transpose();

@@ -255,6 +255,40 @@ TEST(Allocation, QpModeRelaxedTicksAllocateNothingInTheCoreWithDaqp) {
   expectNoCoreAllocations(static_cast<long>(frames.size()) - 20);
 }
 
+// The floor's rungs (ContactQp): two hinged boards land side by side, their face links'
+// rows dependent (12 rows, 7 DoF). The impact on the independent rows, the dependent rows
+// freed and re-solved, tick after tick, with DAQP.
+TEST(Allocation, DependentContactRowsAllocateNothingInTheCore) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
+  auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::testModelPath("hinged_plank.urdf")),
+                              ModelOptions{});
+  const ModelInfo& info = dart->info();
+  ReferenceFrame lying(info.nq, info.nv);
+  lying.q = info.neutralConfiguration();
+  lying.q[2] = standingBaseHeight(*dart, lying.q);
+  ReferenceFrame lifted = lying;
+  lifted.q[info.configurationIndex(info.findJoint("hinge"))] = -0.3;
+  MeasuredModel model(*dart);
+  DynamicsFilter filter(model, test::qpDefaults(1e-3), qp_engines::factory("daqp"));
+  filter.reset(lifted);
+  for (int k = 0; k < 20; ++k) {  // warm up
+    lying.time_s = k * 1e-3;
+    filter.step(lying);
+  }
+  std::uint32_t seen = 0, relaxations = 0;
+  resetCounts();
+  g_counting = true;
+  for (int k = 20; k < 300; ++k) {
+    lying.time_s = k * 1e-3;
+    seen |= filter.step(lying).status;
+    relaxations |= filter.output().qp_relaxation;
+  }
+  g_counting = false;
+  EXPECT_TRUE(seen & kStatusImpact) << "board b landed (status union " << seen << ")";
+  EXPECT_TRUE(relaxations & 8u) << "the dependent rows were freed (relaxation bits " << relaxations << ")";
+  expectNoCoreAllocations(280);
+}
+
 // Contacts that slide (QpModeOptions::tangential_slip): a box lands at 1 m/s along the
 // ground while its reference flies above it (out of the schedule's stance). The landing
 // slides through its impact (the impact's friction-cone test solves one impact more), then

@@ -36,7 +36,7 @@ constexpr double kDependentRowTolerance = 1e-6;
 /// kDependentRowTolerance of its norm, and increments @p kept. Returns whether it did;
 /// false for a row that depends on those kept (or is zero). Does not allocate.
 bool appendIndependentRow(Eigen::Ref<Eigen::MatrixXd> basis, int& kept,
-                          const Eigen::Ref<const Eigen::RowVectorXd>& h);
+                          const Eigen::Ref<const Eigen::RowVectorXd, 0, Eigen::InnerStride<>>& h);
 
 /// Eq. 14 and the plastic impact, with buffers allocated once.
 class ConstrainedDynamics {
