@@ -50,8 +50,8 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
   # and test_backends cases of the same descriptions' edge cases.
   # ReferenceCleanup.ShippedClipsHaveStillFeetAndNoJumps cleans every shipped clip up with
   # the defaults: 30 s in Release since the balance stage is on, beyond the 600 s timeout
-  # here; the Release run keeps it, and the Balance.*CmuWalk tests run the same clean-up on
-  # the walk under the sanitizers.
+  # here; the Release run keeps it, and Balance.TheCmuWalks… runs the same clean-up on the
+  # walk under the sanitizers (once, for both of its windows: about 3.5 minutes here).
   # (The QP-mode tests run here too: ProxQP 0.7.2 read uninitialised bools of its workspace,
   # which UBSan caught; solvers/proxqp now initialises them.)
   # RealtimeClosedLoop.* (10 whole closed-loop runs, 125 s here) run in Release only: the
