@@ -30,9 +30,20 @@ inline void addModelOptions(CLI::App& app, ModelCli& cli) {
 }
 
 /// Loads @p urdf_path with the shared options; with --verbose, prints the ignored
-/// elements and the loader's warnings to stderr once.
-inline urdf::RobotDescription loadRobot(const std::string& urdf_path, const ModelCli& cli) {
+/// elements and the loader's warnings to stderr once. Always says so when a model whose
+/// base floats has no collision geometry at all (a visual-only description): it touches
+/// neither the ground nor a box, and no filter or simulator can stand it up.
+inline urdf::RobotDescription loadRobot(const std::string& urdf_path, const ModelCli& cli,
+                                        bool floating_base = true) {
   urdf::RobotDescription robot = urdf::loadUrdfFile(urdf_path, cli.load);
+  bool any_collision = false;
+  for (const auto& link : robot.links) any_collision = any_collision || !link.collisions.empty();
+  if (floating_base && !any_collision)
+    std::fprintf(stderr,
+                 "warning: %s: no <link> has <collision> geometry: the model touches neither the "
+                 "ground nor a box, so it has nothing to stand on (add collision shapes, e.g. boxes "
+                 "under the feet)\n",
+                 urdf_path.c_str());
   if (cli.verbose) {
     for (const auto& e : robot.ignored_elements) std::fprintf(stderr, "ignored: %s\n", e.c_str());
     for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());

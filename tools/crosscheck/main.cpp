@@ -130,14 +130,14 @@ int main(int argc, char** argv) {
   try {
     if (!filtered.empty()) {
       const std::string other = filtered_backend == "dart" ? "ode" : "dart";
-      return checkFiltered(tools::loadRobot(model_a, model_cli), other, filtered, fixed_base,
+      return checkFiltered(tools::loadRobot(model_a, model_cli, !fixed_base), other, filtered, fixed_base,
                            tol_weight);
     }
     if (model_b.empty()) model_b = model_a;
     ModelOptions options;
     options.floating_base = !fixed_base;
-    const auto robot_a = tools::loadRobot(model_a, model_cli);
-    const auto robot_b = tools::loadRobot(model_b, model_cli);
+    const auto robot_a = tools::loadRobot(model_a, model_cli, !fixed_base);
+    const auto robot_b = tools::loadRobot(model_b, model_cli, !fixed_base && model_b != model_a);
     auto a = makeModel(backend_a, robot_a, options);
     auto b = makeModel(backend_b, robot_b, options);
     const ModelInfo& info = a->info();

@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
-    const auto robot = dynfilter::tools::loadRobot(urdf_path, model_cli);
+    const auto robot = dynfilter::tools::loadRobot(urdf_path, model_cli, /*floating_base=*/!fixed_base);
     if (!model_cli.verbose)
       for (const auto& w : robot.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     dynfilter::ModelOptions options;
