@@ -395,7 +395,7 @@ ContactQpReport ContactQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     }
     resolve(/*bounds_only=*/!rows_restored);
     report.ok = extract();
-    }
+  }
   // No answer holds every link: the rows may be dependent with inconsistent targets (two
   // touching bodies one joint apart), or the torque limits cannot hold them. Before the
   // contacts break, they give way as a rigid floor does, in three re-solves at most: the
@@ -490,7 +490,7 @@ void ContactQp::freeLinkRows(DenseQp& qp, int i, bool tangents) {
   LinkBounds& lb = link_bounds_[static_cast<std::size_t>(i)];
   if (lb.num_axes > 3 && !lb.rotations_free) {
     for (int slot = 3; slot < lb.num_axes; ++slot) freeRow(qp, lb.row + slot);
-    dropInequalityRows(qp, lb.facet_row + options_.friction_facets, lb.num_axes == 6 ? 6 : 4);  // CoP, torsion
+    dropInequalityRows(qp, lb.facet_row + options_.friction_facets, momentRows(lb));
     lb.rotations_free = true;
     lb.yaw_slip = 0;
     lb.pivot_from_rest = false;
@@ -517,8 +517,7 @@ int ContactQp::freeDependentRows(DenseQp& qp, const Eigen::Ref<const Eigen::Matr
         if (slot == 2) {  // a dependent normal: the whole link gives way
           for (int a = 0; a < lb.num_axes; ++a)
             if (!row_free_[static_cast<std::size_t>(lb.row + a)]) freeRow(qp, lb.row + a);
-          dropInequalityRows(qp, lb.facet_row,
-                             options_.friction_facets + (lb.num_axes == 6 ? 6 : lb.num_axes == 5 ? 4 : 0));
+          dropInequalityRows(qp, lb.facet_row, options_.friction_facets + momentRows(lb));
           qp.x_lower[nv_ + lb.row + 2] = -kQpInfinity;
           qp.x_upper[nv_ + lb.row + 2] = kQpInfinity;
           lb.f_min = 0.0;

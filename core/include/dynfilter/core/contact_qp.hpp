@@ -212,6 +212,9 @@ class ContactQp {
              const Eigen::Ref<const Eigen::VectorXd>& u_C);
   // Writes link @p lb's two torsion rows |m_z| ≤ μ r f_z into qp.C at lb.torsion_row.
   void setTorsionRows(DenseQp& qp, const LinkBounds& lb) const;
+  // Inequality rows of C after the friction pyramid that bound a link's moments: CoP along
+  // x and torsion (edges), and CoP along y (faces).
+  static int momentRows(const LinkBounds& lb) { return lb.num_axes == 6 ? 6 : lb.num_axes == 5 ? 4 : 0; }
   // The τ_C row (and Eq. 9 row) of an edge's or a face's yaw: rz is its last axis.
   static int yawRow(const LinkBounds& lb) { return lb.row + lb.num_axes - 1; }
   // Undoes pivot(): link @p i's yaw row and torsion rows as built.
