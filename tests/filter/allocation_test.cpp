@@ -262,12 +262,8 @@ TEST(Allocation, DependentContactRowsAllocateNothingInTheCore) {
   if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
   auto dart = test::makeModel("dart", urdf::loadUrdfFile(test::testModelPath("hinged_plank.urdf")),
                               ModelOptions{});
-  const ModelInfo& info = dart->info();
-  ReferenceFrame lying(info.nq, info.nv);
-  lying.q = info.neutralConfiguration();
-  lying.q[2] = standingBaseHeight(*dart, lying.q);
-  ReferenceFrame lifted = lying;
-  lifted.q[info.configurationIndex(info.findJoint("hinge"))] = -0.3;
+  ReferenceFrame lying, lifted;
+  test::hingedBoardsLyingAndLifted(*dart, lying, lifted);
   MeasuredModel model(*dart);
   DynamicsFilter filter(model, test::qpDefaults(1e-3), qp_engines::factory("daqp"));
   filter.reset(lifted);

@@ -832,13 +832,10 @@ TEST_P(QpModeRelaxationOnEngines, TwoHingedBoardsLandAndLieOnTheFloorNotInIt) {
   auto model = test::makeModel("dart", urdf::loadUrdfFile(test::testModelPath("hinged_plank.urdf")),
                                ModelOptions{});
   const ModelInfo& info = model->info();
-  ReferenceFrame lying(info.nq, info.nv);
-  lying.q = info.neutralConfiguration();
-  lying.q[2] = standingBaseHeight(*model, lying.q);
+  ReferenceFrame lying, lifted;
+  test::hingedBoardsLyingAndLifted(*model, lying, lifted);
   ASSERT_NEAR(lying.q[2], 0.025, 1e-6);
   DynamicsFilter filter(*model, test::qpDefaults(1e-3), qp_engines::factory(GetParam()));
-  ReferenceFrame lifted = lying;  // board b raised by 0.3 rad: it comes down on its far edge
-  lifted.q[info.configurationIndex(info.findJoint("hinge"))] = -0.3;
   filter.reset(lifted);
   PhysicsCheck check;
   std::uint32_t relaxations = 0;

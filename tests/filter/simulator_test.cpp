@@ -1,4 +1,5 @@
 // The simulator mode (Eq. 14) and the plastic impact.
+#include <memory>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -80,18 +81,32 @@ TEST(Simulator, StandingSwayKeepsBothFeetOnTheGroundAndSatisfiesEq14) {
   EXPECT_LT((foot1 - foot0).norm(), 1e-3);
 }
 
-TEST(ConstrainedDynamics, PlasticImpactStopsTheConstrainedMotionAndLosesEnergy) {
-  std::mt19937 rng(8);
-  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+// The human figure at a random state (@p seed), its mass matrix A and the six rows J of a
+// point on its right sole.
+struct FootAtRandomState {
+  std::unique_ptr<IDynamicsModel> model;
   Eigen::VectorXd q, v;
-  test::randomState(*model, rng, 1.0, q, v);
-  model->setState(q, v);
-  const int nv = model->nv();
-  Eigen::MatrixXd A(nv, nv), H(6, nv);
-  model->massMatrix(A);
-  Matrix6Xd J(6, nv);
-  model->pointJacobian(model->info().findBody("r_foot"), Eigen::Vector3d(0.1, 0, -0.06), J);
-  H = J;
+  Eigen::MatrixXd A;
+  Matrix6Xd J;
+
+  explicit FootAtRandomState(unsigned seed)
+      : model(test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{})) {
+    std::mt19937 rng(seed);
+    test::randomState(*model, rng, 1.0, q, v);
+    model->setState(q, v);
+    A.resize(model->nv(), model->nv());
+    model->massMatrix(A);
+    J.resize(6, model->nv());
+    model->pointJacobian(model->info().findBody("r_foot"), Eigen::Vector3d(0.1, 0, -0.06), J);
+  }
+};
+
+TEST(ConstrainedDynamics, PlasticImpactStopsTheConstrainedMotionAndLosesEnergy) {
+  const FootAtRandomState s(8);
+  const Eigen::VectorXd& v = s.v;
+  const Eigen::MatrixXd& A = s.A;
+  const int nv = s.model->nv();
+  const Eigen::MatrixXd H = s.J;
   ConstrainedDynamics cd(nv, 6, 48);
   Eigen::VectorXd v_plus = v, impulse(6);
   ASSERT_TRUE(cd.plasticImpact(A, H, v_plus, impulse));
@@ -105,16 +120,11 @@ TEST(ConstrainedDynamics, PlasticImpactStopsTheConstrainedMotionAndLosesEnergy) 
 // seventh row that is a sum of two of them, the impact is the one of the six rows alone
 // (the velocity is unique; the dependent rows get no impulse).
 TEST(ConstrainedDynamics, DependentImpactRowsGiveTheImpactOfTheIndependentOnes) {
-  std::mt19937 rng(9);
-  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
-  Eigen::VectorXd q, v;
-  test::randomState(*model, rng, 1.0, q, v);
-  model->setState(q, v);
-  const int nv = model->nv();
-  Eigen::MatrixXd A(nv, nv);
-  model->massMatrix(A);
-  Matrix6Xd J(6, nv);
-  model->pointJacobian(model->info().findBody("r_foot"), Eigen::Vector3d(0.1, 0, -0.06), J);
+  const FootAtRandomState s(9);
+  const Eigen::VectorXd& v = s.v;
+  const Eigen::MatrixXd& A = s.A;
+  const Matrix6Xd& J = s.J;
+  const int nv = s.model->nv();
   Eigen::MatrixXd H(13, nv);
   H << J, J, J.row(0) + 2.0 * J.row(4);
   ConstrainedDynamics cd(nv, 6, 48);

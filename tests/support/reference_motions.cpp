@@ -9,6 +9,7 @@
 
 #include "dynfilter/core/dynamics_simulator.hpp"
 #include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/core/model_sampling.hpp"
 #include "support/test_support.hpp"
 
 namespace dynfilter::test {
@@ -98,6 +99,15 @@ void walkOffAndTurn(std::vector<ReferenceFrame>& frames, double speed_mps, doubl
                                 Eigen::Translation3d(-p0);
     moveBase(X, f.q);
   }
+}
+
+void hingedBoardsLyingAndLifted(IDynamicsModel& model, ReferenceFrame& lying, ReferenceFrame& lifted) {
+  const ModelInfo& info = model.info();
+  lying = ReferenceFrame(info.nq, info.nv);
+  lying.q = info.neutralConfiguration();
+  lying.q[2] = standingBaseHeight(model, lying.q);
+  lifted = lying;
+  lifted.q[info.configurationIndex(info.findJoint("hinge"))] = -0.3;
 }
 
 }  // namespace dynfilter::test

@@ -26,4 +26,10 @@ std::vector<ReferenceFrame> simulateStandingSway(IDynamicsModel& model, double s
 /// the first frame's time (velocities unchanged: a reference the figure cannot follow).
 void walkOffAndTurn(std::vector<ReferenceFrame>& frames, double speed_mps, double turn_rate_radps);
 
+/// Two hinged boards (tests/models/hinged_plank.urdf, @p model) lying flat on level ground,
+/// @p lying, and the same with board b raised 0.3 rad about the hinge, @p lifted: started
+/// there and given @p lying, board b comes down beside board a (a landing whose two face
+/// links' rows are dependent).
+void hingedBoardsLyingAndLifted(IDynamicsModel& model, ReferenceFrame& lying, ReferenceFrame& lifted);
+
 }  // namespace dynfilter::test

@@ -21,6 +21,9 @@ import os
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from example_robot_data import robots_root  # noqa: E402
+
 # Wrong as shipped: (file name, text the error must contain).
 REFUSED = {
     "alex_psyonic_hands.urdf": 'leader joint "index_q1" is not defined',
@@ -44,19 +47,17 @@ def main():
     ap.add_argument("--venv", required=True)
     ap.add_argument("--crosscheck", help="dynfilter-crosscheck: also compare DART with ODE")
     args = ap.parse_args()
-    roots = glob.glob(os.path.join(args.venv, "lib", "python3*", "site-packages", "cmeel.prefix",
-                                   "share", "example-robot-data", "robots"))
-    if not roots:
-        print("example-robot-data is not installed in", args.venv, "(tools/install-deps.sh)")
+    root = robots_root(args.venv)
+    if root is None:
         return 77
-    urdfs = sorted(glob.glob(os.path.join(roots[0], "**", "*.urdf"), recursive=True))
+    urdfs = sorted(glob.glob(os.path.join(root, "**", "*.urdf"), recursive=True))
     failures = []
     loaded = crosschecked = 0
     for urdf in urdfs:
         name = os.path.basename(urdf)
         for backend in ("dart", "ode"):
             rc, out = run(args.model_info, urdf, backend, 0)
-            where = f"{backend} {os.path.relpath(urdf, roots[0])}"
+            where = f"{backend} {os.path.relpath(urdf, root)}"
             last = out.strip().splitlines()[-1] if out.strip() else ""
             if rc < 0:
                 failures.append(f"{where}: killed by signal {-rc}: {last}")
@@ -73,7 +74,7 @@ def main():
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=300)
             if p.returncode != 0:
                 bad = [l.strip() for l in p.stdout.splitlines() if l.rstrip().endswith("FAIL")]
-                failures.append(f"crosscheck {os.path.relpath(urdf, roots[0])}: exit {p.returncode}: "
+                failures.append(f"crosscheck {os.path.relpath(urdf, root)}: exit {p.returncode}: "
                                 f"{bad or p.stdout.strip().splitlines()[-1:]}")
             else:
                 crosschecked += 1

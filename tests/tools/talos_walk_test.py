@@ -15,11 +15,13 @@ Prints "talos walk ok"; exit 77 (skipped) when the wheel is not installed.
 """
 import argparse
 import csv
-import glob
 import os
 import re
 import subprocess
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from example_robot_data import robots_root  # noqa: E402
 import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -32,21 +34,19 @@ def main():
     ap.add_argument("--offline", required=True)
     ap.add_argument("--venv", required=True)
     args = ap.parse_args()
-    roots = glob.glob(os.path.join(args.venv, "lib", "python3*", "site-packages", "cmeel.prefix",
-                                   "share", "example-robot-data", "robots"))
-    if not roots:
-        print("example-robot-data is not installed in", args.venv, "(tools/install-deps.sh)")
+    root = robots_root(args.venv)
+    if root is None:
         return 77
-    urdf = os.path.join(roots[0], "talos_data", "robots", "talos_reduced.urdf")
+    urdf = os.path.join(root, "talos_data", "robots", "talos_reduced.urdf")
     cmu = os.path.join(REPO, "data", "mocap", "cmu")
     with tempfile.TemporaryDirectory() as tmp:
         ref = os.path.join(tmp, "talos_walk.csv")
         subprocess.run([args.bvh2ref, os.path.join(cmu, "131_01_start_walk_stop.bvh"),
                         "--mapping", os.path.join(cmu, "mappings", "131_01_talos.yaml"),
-                        "--model", urdf, "--package-path", roots[0], "-o", ref],
+                        "--model", urdf, "--package-path", root, "-o", ref],
                        check=True, stdout=subprocess.DEVNULL)
         events = os.path.join(tmp, "events.csv")
-        out = subprocess.run([args.offline, ref, "--model", urdf, "--package-path", roots[0],
+        out = subprocess.run([args.offline, ref, "--model", urdf, "--package-path", root,
                               "--mode", "qp", "--no-progress", "-o", os.path.join(tmp, "out.csv"),
                               "--events-csv", events],
                              check=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True).stdout
