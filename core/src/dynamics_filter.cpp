@@ -445,21 +445,15 @@ std::uint32_t DynamicsFilter::solveQp(Eigen::Ref<Eigen::MatrixXd> H_C,
                        (report.floor_rung > 0 ? 4u << report.floor_rung : 0u);
   out_.qp_violated = out_.qp_relaxation != 0 ? report.violated_first : report.violated;
   out_.counters.qp_iterations += static_cast<std::uint64_t>(std::max(0, report.info.iterations));
-  // Pivots: a pivoting link's yaw row states the turn it took (Eq. 9 holds on the others).
-  int row = 0;
-  for (int i = 0; i < links_.size(); ++i) {
-    const int sign = report.ok ? contact_qp_->yawSlip(i) : 0;
-    links_.setYawSlip(i, sign);
-    if (!links_[i].slide_A.isZero())  // a slide's tangential rows state the motion it took
-      for (const int r : {row, row + 1}) u_C[r] = H_C.row(r).dot(vdot_solved_);
-    row += links_[i].num_axes;
-    if (sign != 0) u_C[row - 1] = H_C.row(row - 1).dot(vdot_solved_);
-  }
+  for (int i = 0; i < links_.size(); ++i) links_.setYawSlip(i, report.ok ? contact_qp_->yawSlip(i) : 0);
+  // A row that held no equality in the answer (a pivot's yaw, a slide's tangents, a row the
+  // floor rungs freed) states the motion it took; Eq. 9 holds on the others. Without an
+  // answer (the fallback below) every row holds, and the failed solve's iterate is not used.
+  if (report.ok)
+    for (int r = 0; r < links_.numRows(); ++r)
+      if (contact_qp_->rowFree(r)) u_C[r] = H_C.row(r).dot(vdot_solved_);
   const std::uint32_t capped =
       report.info.status == QpSolveStatus::kMaxIterations ? kStatusQpIterationLimit : kStatusOk;
-  if (report.ok && report.floor_rung > 0)
-    for (int r = 0; r < links_.numRows(); ++r)  // a freed row states the motion it took
-      if (contact_qp_->rowFree(r)) u_C[r] = H_C.row(r).dot(vdot_solved_);
   if (report.ok) {
     ++out_.counters.qp_solves;
     if (out_.qp_relaxation == 0) return capped;

@@ -603,6 +603,7 @@ void fillFilterStatus(const FilterOutput& output, const StatusReport& report,
   msg.qp_relaxed = static_cast<std::int64_t>(output.counters.qp_relaxed);
   msg.pivot_ticks = static_cast<std::int64_t>(output.counters.pivot_ticks);
   msg.slide_ticks = static_cast<std::int64_t>(output.counters.slide_ticks);
+  msg.leash_ticks = static_cast<std::int64_t>(output.counters.leash_ticks);
   const int links = std::max(0, std::min(output.num_contacts, static_cast<int>(output.contacts.size())));
   int rows = report.task_rows;
   for (int c = 0; c < links; ++c) rows += static_cast<int>(output.contacts[static_cast<std::size_t>(c)].kind);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -461,6 +462,88 @@ TEST_P(QpModeSlide, ABoxSlidingOnTheGroundSlowsAtMuGThenSticks) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, QpModeSlide, ::testing::ValuesIn(test::allBackends()));
+
+// An engine that solves with a real one, except while @p fail is set: then it answers with a
+// non-finite iterate, as an engine that broke down would.
+class FailsOnRequest final : public IQpSolver {
+ public:
+  FailsOnRequest(std::unique_ptr<IQpSolver> engine, const bool& fail) : engine_(std::move(engine)), fail_(fail) {}
+  QpSolveInfo solve(const DenseQp& problem, Eigen::Ref<Eigen::VectorXd> x) override {
+    return fail_ ? broken(x) : engine_->solve(problem, x);
+  }
+  QpSolveInfo resolveWithNewBounds(const DenseQp& problem, Eigen::Ref<Eigen::VectorXd> x) override {
+    return fail_ ? broken(x) : engine_->resolveWithNewBounds(problem, x);
+  }
+  void resetWarmStart() override { engine_->resetWarmStart(); }
+  void restartFromLastSolution() override { engine_->restartFromLastSolution(); }
+  const char* name() const override { return "fails-on-request"; }
+
+ private:
+  static QpSolveInfo broken(Eigen::Ref<Eigen::VectorXd> x) {
+    x.setConstant(std::numeric_limits<double>::quiet_NaN());
+    QpSolveInfo info;
+    info.status = QpSolveStatus::kNotFinite;
+    return info;
+  }
+  std::unique_ptr<IQpSolver> engine_;
+  const bool& fail_;
+};
+
+// The box of ABoxSlidingOnTheGroundSlows... while it slides, and a QP that breaks down on one
+// tick: the fallback (the paper's solve) holds the sliding link as a plain virtual link, Eq. 12
+// exact and every output finite; what the failed solve left in its iterate (here NaN) does not
+// reach the fallback's equation. The next tick slides on with the QP.
+TEST_P(QpModeSlide, AFallbackWhileSlidingHoldsTheLinkWithoutTheFailedSolvesIterate) {
+  auto model = test::makeModel(GetParam(), urdf::loadUrdfFile(test::testModelPath("floating_box.urdf")),
+                               ModelOptions{});
+  const ModelInfo& info = model->info();
+  const double mass = 3.0, v0 = 1.0, dt = 1e-3;
+  Eigen::VectorXd q0(info.nq), v_start = Eigen::VectorXd::Zero(info.nv);
+  q0 << 0, 0, 0, 1, 0, 0, 0;
+  q0[2] = standingBaseHeight(*model, q0);
+  v_start[0] = v0;
+  auto reference = [&](double t) {  // flying above the box, as in the test above
+    ReferenceFrame ref(info.nq, info.nv);
+    ref.time_s = t;
+    ref.q << v0 * t, 0, q0[2] + 0.3 + t - 0.5 * kStandardGravity * t * t, 1, 0, 0, 0;
+    ref.v.setZero();
+    ref.v[0] = v0;
+    ref.v[2] = 1.0 - kStandardGravity * t;
+    ref.vdot.setZero();
+    ref.vdot[2] = -kStandardGravity;
+    return ref;
+  };
+  FilterOptions options = test::qpDefaults(dt);
+  options.qp.tangential_slip = true;
+  options.qp.release_transition_s = 1.0;
+  bool fail = false;
+  const QpSolverFactory engines = qp_engines::factory(QpSolverSettings{}.engine);
+  DynamicsFilter filter(*model, options, [&](int n, int m_eq, int m_in, const QpSolverSettings& s) {
+    return std::unique_ptr<IQpSolver>(new FailsOnRequest(engines(n, m_eq, m_in, s), fail));
+  });
+  filter.reset(reference(0.0));
+  for (int k = 0; k <= 250; ++k) ASSERT_TRUE(filter.previewFrame(reference(k * dt)));
+  ASSERT_TRUE(filter.setMeasuredState(q0, v_start));
+  const int failing_tick = 40;  // the box slides until about tick 130
+  for (int k = 0; k < failing_tick + 10; ++k) {
+    fail = k == failing_tick;
+    const FilterOutput& out = filter.step(reference((k + 1) * dt));
+    ASSERT_TRUE(out.q.allFinite() && out.v.allFinite() && out.vdot.allFinite() && out.tau_J.allFinite()) << "tick " << k;
+    ASSERT_EQ(out.status & (kStatusNonFinite | kStatusReseeded), 0u) << "tick " << k << ": " << out.status;
+    if (k < 5) continue;  // touching down
+    ASSERT_EQ(out.num_contacts, 1) << "tick " << k;
+    const ContactOutput& c = out.contacts[0];
+    if (k != failing_tick) {
+      EXPECT_EQ(out.status & kStatusQpFallback, 0u) << "tick " << k;
+      EXPECT_FALSE(c.slide_W.isZero()) << "tick " << k << ": the box slides";
+      continue;
+    }
+    EXPECT_NE(out.status & kStatusQpFallback, 0u);
+    EXPECT_LE(out.eq12_residual, 1e-9 * mass * kStandardGravity) << "Eq. 12 holds on every row";
+    EXPECT_LE(out.base_residual_n, 1e-9 * mass * kStandardGravity);
+  }
+  EXPECT_EQ(filter.output().counters.qp_fallbacks, 1u);
+}
 
 // The box resting on the ground with its reference, which is then thrown up (3 m/s) while
 // the box, which nothing can lift, stays: the schedule lifts the box, its link unloads over the release ramp and goes, and the

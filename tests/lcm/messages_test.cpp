@@ -664,6 +664,7 @@ TEST(FilterStatusMessage, ReportsBitsReasonSolverTimingsAndCounters) {
   out.counters.qp_relaxed = 41;
   out.counters.pivot_ticks = 7;
   out.counters.slide_ticks = 9;
+  out.counters.leash_ticks = 11;
   fillFilterStatus(out, report, msg);
   EXPECT_EQ(msg.reason, "re-seeded; QP relaxed (re-seed: joint error) (QP violated: friction,torque)");
   EXPECT_EQ(msg.qp_status, 2);
@@ -674,6 +675,7 @@ TEST(FilterStatusMessage, ReportsBitsReasonSolverTimingsAndCounters) {
   EXPECT_EQ(msg.qp_relaxed, 41);
   EXPECT_EQ(msg.pivot_ticks, 7);
   EXPECT_EQ(msg.slide_ticks, 9);
+  EXPECT_EQ(msg.leash_ticks, 11);
 }
 
 // ---------------------------------------------------------------------------------------
