@@ -4,10 +4,11 @@
     build/venv/bin/python tools/diagnose_reseeds.py [--out build/diagnosis] [--only walk,kick]
         [--mode qp] [--config tools/config/default.yaml] [--markdown docs/reseeds.md]
 
-For each clip (the four results of tools/paper_results.py: walk, slope, jump, kick) it
-retargets the CMU capture (dynfilter-bvh2ref), filters it (dynfilter-offline --events-csv
---bodies-csv) and, for every re-seed (status bit 16; re-seeds less than 0.1 s apart form one
-episode), looks at the 0.5 s before it and reports what the outputs show:
+For each clip (the results of tools/paper_results.py: walk, slope, jump, kick, and g1_walk on
+the robot paper_results.ROBOTS names) it retargets the CMU capture (dynfilter-bvh2ref),
+filters it (dynfilter-offline --events-csv) and, for every re-seed (status bit 16; re-seeds
+less than 0.1 s apart form one episode), looks at the 0.5 s before it and reports what the
+outputs show:
   reason      the divergence guard's reason (events CSV)
   balance     the filtered figure's centre of mass / capture point (CoM + CoM velocity / ω,
               ω = √(g / CoM height)) outside the support (convex hull of the collision-box
@@ -158,6 +159,101 @@ def outside(poly, p):
     return best if not inside else d_out
 
 
+def capture_point(com, com_vel, ground_z):
+    """Capture point (x, y): CoM + CoM velocity / ω, ω = √(g / h), h the CoM's height above
+    the ground (at least 0.2 m)."""
+    h = max(com[2] - ground_z, 0.2)
+    return com[:2] + com_vel[:2] / math.sqrt(G / h)
+
+
+def capture_exit(rows, times, com, com_vel, support_of, ground):
+    """The capture point against the support over rows: ((time, distance) of the first row
+    more than 1 cm outside, or None; the largest finite distance outside)."""
+    first, worst = None, 0.0
+    for k in rows:
+        d = outside(support_of(k), capture_point(com[k], com_vel[k], ground(com[k, :2])))
+        worst = max(worst, d if math.isfinite(d) else 0.0)
+        if first is None and d > 0.01:
+            first = (times[k], d)
+    return first, worst
+
+
+def window_rows(t_f, t_r, previous, dt):
+    """(rows of the filtered output looked at for the re-seed at t_r, index of the first row
+    at or after t_r). The rows: WINDOW_S before t_r, from 2 rows after the previous episode's
+    last re-seed, to 2 rows before the re-seed's row: that row holds the teleported state, and
+    the velocities are central differences."""
+    k_end = int(np.searchsorted(t_f, t_r))
+    start = max(t_r - WINDOW_S, previous + 2.0 * dt)
+    return range(max(0, int(np.searchsorted(t_f, start))), min(k_end - 1, len(t_f))), k_end
+
+
+def touching(body, states, links, ground):
+    """The links whose collision shapes come within 2 cm of the ground in any of the states."""
+    out = set()
+    for s in states:
+        for l in links:
+            W = body.lowest(*s, l)
+            if len(W) and min(W[:, 2] - np.array([ground(p[:2]) for p in W])) < 0.02:
+                out.add(l)
+    return out
+
+
+def foot_track(body, states, times, link, ground):
+    """Per state: (time, centre of the link's collision points, height of its lowest point
+    above the ground)."""
+    track = []
+    for t, s in zip(times, states):
+        W = body.lowest(*s, link)
+        z = W[:, 2] - np.array([ground(p[:2]) for p in W])
+        # The centre of all its collision points: a fixed set, so it does not jump when
+        # a different corner becomes the lowest (the four lowest did, by 10+ m/s).
+        track.append((t, W.mean(axis=0), float(z.min())))
+    return track
+
+
+def foot_findings(link, track):
+    """Sinking (lowest point > 5 mm below the ground) and sliding (> 0.15 m/s between two
+    rows both within 5 mm of the ground) of a foot_track."""
+    if not track:
+        return []
+    sink = min(z for _, _, z in track)
+    slide = 0.0
+    for (ta, pa, za), (tb, pb, zb) in zip(track, track[1:]):
+        if za < 0.005 and zb < 0.005 and tb > ta:
+            slide = max(slide, float(np.linalg.norm(pb[:2] - pa[:2]) / (tb - ta)))
+    out = []
+    if sink < -0.005:
+        out.append(f"reference {link} sinks {1000 * -sink:.0f} mm")
+    if slide > 0.15:
+        out.append(f"reference {link} slides at up to {slide:.2f} m/s in stance")
+    return out
+
+
+def joints_beyond(lower, upper, q):
+    """(excess, joint) of the joints of q more than 0.05 rad outside [lower, upper], largest first."""
+    beyond = []
+    for j, lo in lower.items():
+        if j in q:
+            ex = max(lo - q[j], q[j] - upper[j])
+            if ex > 0.05:
+                beyond.append((ex, j))
+    return sorted(beyond, reverse=True)
+
+
+def saturated_torques(table, effort, rows):
+    """(fraction, joint) of the joints whose |torque| is at ≥ 99 % of its limit in ≥ 10 % of
+    the rows, largest first."""
+    sat = []
+    for j, lim in effort.items():
+        col = f"{j}.tau"
+        if col in table and rows:
+            frac = float(np.mean(np.abs(table[col][rows]) >= 0.99 * lim))
+            if frac >= 0.1:
+                sat.append((frac, j))
+    return sorted(sat, reverse=True)
+
+
 # ----------------------------------------------------------------------------- analysis
 def episodes(events_csv):
     rows = []
@@ -177,6 +273,16 @@ def episodes(events_csv):
     return eps, relaxed
 
 
+def soles_of(ref_csv, body):
+    """The model's soles: the bodies of the contact schedule dynfilter-bvh2ref writes beside
+    the reference (<stem>.stance.csv); without one, the links named like a foot."""
+    stance = Path(ref_csv).with_suffix(".stance.csv")
+    if stance.exists():
+        with open(stance) as f:
+            return [l for l in next(csv.reader(f))[1:] if l in body.shapes]
+    return [l for l in body.shapes if "foot" in l]
+
+
 def analyse(name, ref_csv, fil_csv, contacts_csv, events_csv, body, ground):
     ref, fil = pr.read_table(ref_csv), pr.read_table(fil_csv)
     eps, relaxed = episodes(events_csv)
@@ -191,12 +297,8 @@ def analyse(name, ref_csv, fil_csv, contacts_csv, events_csv, body, ground):
     cd_ref = np.gradient(c_ref, ref["time"], axis=0)
     cd_fil = np.gradient(c_fil, t_f, axis=0)
 
-    def capture(c, cd, k):
-        h = max(c[k, 2] - ground(c[k, :2]), 0.2)
-        return c[k, :2] + cd[k, :2] / math.sqrt(G / h)
-
     contacts = pr.read_contact_rows(contacts_csv)
-    feet = [l for l in body.shapes if "foot" in l]
+    feet = soles_of(ref_csv, body)
     others = [l for l in body.shapes if l not in feet]
 
     def support_fil(k):
@@ -220,12 +322,9 @@ def analyse(name, ref_csv, fil_csv, contacts_csv, events_csv, body, ground):
     previous = -math.inf  # the last re-seed before this episode: its teleport is no motion
     for ep in eps:
         t_r = ep["times"][0]
-        k_end = int(np.searchsorted(t_f, t_r))
-        start = max(t_r - WINDOW_S, previous + 2.0 * dt)
+        ks, k_end = window_rows(t_f, t_r, previous, dt)
         previous = ep["times"][-1]
-        # Up to the row before the re-seed's (that row holds the teleported state, and the
-        # velocities are central differences).
-        ks = range(max(0, int(np.searchsorted(t_f, start))), min(k_end - 1, len(t_f)))
+        ref_rows = [idx_ref[k] for k in ks]
         findings = []
         reason = ", ".join(sorted(ep["reasons"]))
         # The base's lean against its turn (events CSV of dynfilter-offline since §30).
@@ -236,76 +335,29 @@ def analyse(name, ref_csv, fil_csv, contacts_csv, events_csv, body, ground):
             upright = row["reseed_reason"] in pr.FALL_REASONS and not pr.is_fall(row)
             findings.append(lean + (" (upright: a turn or a drift not followed, not a fall)" if upright else ""))
         # Balance of the filtered figure and of the reference.
-        first_cp = None
-        worst_cp = 0.0
-        for k in ks:
-            d = outside(support_fil(k), capture(c_fil, cd_fil, k))
-            worst_cp = max(worst_cp, d if math.isfinite(d) else 0.0)
-            if first_cp is None and d > 0.01:
-                first_cp = (t_f[k], d)
+        first_cp, worst_cp = capture_exit(ks, t_f, c_fil, cd_fil, support_fil, ground)
         if first_cp:
             findings.append(f"filtered capture point left its support at {first_cp[0]:.2f} s "
                             f"(up to {100 * worst_cp:.0f} cm outside)")
-        ref_out = 0.0
-        for k in ks:
-            i = idx_ref[k]
-            d = outside(support_ref(i), capture(c_ref, cd_ref, i))
-            if math.isfinite(d):
-                ref_out = max(ref_out, d)
+        _, ref_out = capture_exit(ref_rows, ref["time"], c_ref, cd_ref, support_ref, ground)
         if ref_out > 0.02:
             findings.append(f"the reference's own capture point is up to {100 * ref_out:.0f} cm outside the reference's support")
         # Contacts the reference has and the filter does not.
-        touched = set()
-        for k in ks:
-            i = idx_ref[k]
-            for l in others:
-                W = body.lowest(*S_ref[i], l)
-                if len(W) and min(W[:, 2] - np.array([ground(p[:2]) for p in W])) < 0.02:
-                    touched.add(l)
+        touched = touching(body, [S_ref[i] for i in ref_rows], others, ground)
         if touched:
             findings.append("reference puts on the ground: " + ", ".join(sorted(touched)))
         # Stance feet of the reference sliding or sinking.
         for l in feet:
-            lows = []
-            for k in ks:
-                i = idx_ref[k]
-                W = body.lowest(*S_ref[i], l)
-                z = W[:, 2] - np.array([ground(p[:2]) for p in W])
-                # The centre of all its collision points: a fixed set, so it does not jump when
-                # a different corner becomes the lowest (the four lowest did, by 10+ m/s).
-                lows.append((ref["time"][i], W.mean(axis=0), float(z.min())))
-            sink = min(z for _, _, z in lows)
-            slide = 0.0
-            for (ta, pa, za), (tb, pb, zb) in zip(lows, lows[1:]):
-                if za < 0.005 and zb < 0.005 and tb > ta:
-                    slide = max(slide, float(np.linalg.norm(pb[:2] - pa[:2]) / (tb - ta)))
-            if sink < -0.005:
-                findings.append(f"reference {l} sinks {1000 * -sink:.0f} mm")
-            if slide > 0.15:
-                findings.append(f"reference {l} slides at up to {slide:.2f} m/s in stance")
+            findings += foot_findings(l, foot_track(body, [S_ref[i] for i in ref_rows],
+                                                    [ref["time"][i] for i in ref_rows], l, ground))
         # Limits.
         i = idx_ref[min(k_end, len(t_f) - 1)]
-        beyond = []
-        for j, lo in body.lower.items():
-            if j in ref:
-                q = ref[j][i]
-                ex = max(lo - q, q - body.upper[j])
-                if ex > 0.05:
-                    beyond.append((ex, j))
+        beyond = joints_beyond(body.lower, body.upper, {j: ref[j][i] for j in body.lower if j in ref})
         if beyond:
-            beyond.sort(reverse=True)
             findings.append("reference beyond joint limits: " + ", ".join(
                 f"{j} {math.degrees(e):.0f}°" for e, j in beyond[:3]))
-        sat = []
-        kk = list(ks)
-        for j, lim in body.tree.effort.items():
-            col = f"{j}.tau"
-            if col in fil and kk:
-                frac = float(np.mean(np.abs(fil[col][kk]) >= 0.99 * lim))
-                if frac >= 0.1:
-                    sat.append((frac, j))
+        sat = saturated_torques(fil, body.tree.effort, list(ks))
         if sat:
-            sat.sort(reverse=True)
             findings.append("torque at its limit: " + ", ".join(f"{j} {100 * f:.0f} %" for f, j in sat[:3]))
         nrel = [r for r in relaxed if t_r - WINDOW_S <= r[0] <= t_r]
         if nrel:
@@ -331,14 +383,21 @@ def main():
     build = Path(args.build_dir).resolve()
     offline = build / "tools" / "offline" / "dynfilter-offline"
     bvh2ref = build / "tools" / "bvh2ref" / "dynfilter-bvh2ref"
-    body = Body(pr.URDF)
+    human = Body(pr.URDF)
     report = []
     for name in [n.strip() for n in args.only.split(",") if n.strip()]:
         bvh, mapping, stem, extra = pr.RESULTS[name]
+        body, robot = human, []
+        if name in pr.ROBOTS:  # another robot than the human figure (paper_results.ROBOTS)
+            found = subprocess.run(pr.ROBOTS[name], capture_output=True, text=True)
+            if found.returncode != 0:
+                print(f"{name}: skipped, {found.stderr.strip()}")
+                continue
+            body, robot = Body(found.stdout.strip()), ["--model", found.stdout.strip()]
         ref_csv = out / f"{stem}_reference.csv"
         subprocess.run([str(bvh2ref), str(pr.CMU / bvh), "--mapping", str(pr.CMU / "mappings" / mapping),
-                        "-o", str(ref_csv)], check=True, capture_output=True)
-        extra = list(extra)
+                        "-o", str(ref_csv)] + robot, check=True, capture_output=True)
+        extra = list(extra) + robot
         ground = lambda p: 0.0  # noqa: E731
         if "--slope-deg" in extra:
             heading, _ = pr.heading_of(ref_csv)
