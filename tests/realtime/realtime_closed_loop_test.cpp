@@ -3,6 +3,7 @@
 // dynfilter-sim --servo-error-rad 0 and dynfilter-replay do over LCM, with the transport
 // replaced by a schedule, so that a sender's timing can be chosen.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iterator>
 #include <memory>
@@ -14,6 +15,7 @@
 
 #include "closed_loop_sim.hpp"
 #include "dynfilter/io/reference_motion.hpp"
+#include "dynfilter/io/retarget.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/test_support.hpp"
 
@@ -157,6 +159,35 @@ TEST_P(RealtimeClosedLoop, TheLoggedModelMismatchIsSmallWhileTheRobotSquatsOnFla
   EXPECT_LT(worst_linear, 0.05);
   EXPECT_LT(worst_angular, 0.2);
   EXPECT_LT(worst_joint, 2.0);
+}
+
+// A simulation that diverges ends the run, with the time and the engine's message, instead
+// of an exception that loses the run's result (dynfilter-closed-loop exited with "error"):
+// the CMU walk in the paper mode (no torque limits in the solve) drives the robot's torques
+// from one limit to the other, the light axes (hip yaw) spin up, and each engine refuses a
+// step at a runaway velocity within the clip's first seconds (DART at 0.20 s, ODE at 1.35 s after
+// the robot fell).
+TEST_P(RealtimeClosedLoop, ADivergedSimulationEndsTheRunWithItsTimeAndTheEnginesReason) {
+  const auto robot = urdf::loadUrdfFile(test::humanFigurePath());
+  auto model = test::makeModel("dart", robot, ModelOptions{});
+  const io::RetargetMapping mapping =
+      io::readRetargetMapping(test::sourcePath("data/mocap/cmu/mappings/131_01.yaml"));
+  const std::vector<realtime::Clip> clips = {
+      {"walk", io::retargetBvhFile(test::sourcePath("data/mocap/cmu/131_01_start_walk_stop.bvh"), mapping, *model)
+                   .motion.frames}};
+  ClosedLoopSetup setup;
+  setup.robot_engine = GetParam();
+  setup.filter.mode = FilterMode::kPaper;
+  setup.filter.dt_s = 1e-3;
+  setup.seconds = 4.0;
+  ClosedLoopResult r;
+  ASSERT_NO_THROW(r = runClosedLoop(robot, setup, clips));
+  ASSERT_GE(r.engine_refused_at_s, 0.0);
+  EXPECT_LT(r.engine_refused_at_s, setup.seconds);
+  EXPECT_NE(r.engine_error.find("runaway velocity"), std::string::npos) << r.engine_error;
+  EXPECT_GT(r.reseeds, 0u) << "the filter had lost the robot before";
+  // The run ended on the refused tick: ticks 0 .. refused, at 1 kHz from the hold's start.
+  EXPECT_EQ(r.ticks, static_cast<int>(std::lround((setup.replay_start_s + r.engine_refused_at_s) / 1e-3)));
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, RealtimeClosedLoop, testing::Values("ode", "dart"),

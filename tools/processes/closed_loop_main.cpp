@@ -7,7 +7,8 @@
 //       [--sender-gap-s 0.08 --sender-gap-every-s 0.5] [--log run.txt]
 //
 // Prints the lowest base height and when, when the robot fell (base below 0.5 m), the
-// re-seeds by reason and the status bits seen; exits 1 when it fell.
+// re-seeds by reason, the status bits seen, and when the robot's engine refused a step (a
+// diverged simulation ends the run); exits 1 when it fell or its engine refused a step.
 #include <cstdio>
 #include <exception>
 #include <memory>
@@ -94,13 +95,16 @@ int main(int argc, char** argv) {
                 r.max_tilt_rad);
     if (r.fell_at_s >= 0.0) std::printf("FELL at %.3f s (base below %.2f m)\n", r.fell_at_s, setup.fallen_below_m);
     else std::printf("stood\n");
+    if (r.engine_refused_at_s >= 0.0)
+      std::printf("the robot's engine refused a step at %.3f s (%s): the run ended there\n", r.engine_refused_at_s,
+                  r.engine_error.c_str());
     std::printf("re-seeds %llu", static_cast<unsigned long long>(r.reseeds));
     for (int i = 1; i < 7; ++i)
       if (r.reseed_ticks_by_reason[static_cast<std::size_t>(i)] > 0)
         std::printf(", %s: %llu", toString(static_cast<ReseedReason>(i)),
                     static_cast<unsigned long long>(r.reseed_ticks_by_reason[static_cast<std::size_t>(i)]));
     std::printf("; status bits seen 0x%x\n", r.status_union);
-    return r.fell_at_s >= 0.0 ? 1 : 0;
+    return r.fell_at_s >= 0.0 || r.engine_refused_at_s >= 0.0 ? 1 : 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dynfilter-closed-loop: error: %s\n", e.what());
     return 2;

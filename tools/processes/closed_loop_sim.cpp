@@ -85,8 +85,15 @@ ClosedLoopResult runClosedLoop(const urdf::RobotDescription& robot_description, 
       ++r.reseed_ticks_by_reason[static_cast<std::size_t>(std::clamp(static_cast<int>(out.reseed_reason), 0, 6))];
     tau = rt.command();
     if (log != nullptr) v_before = robot->v();
-    if (!robot_stalled)
-      for (int s = 0; s < engine.substeps; ++s) robot->simulateStep(tau, dt / engine.substeps);
+    if (!robot_stalled) {
+      try {
+        for (int s = 0; s < engine.substeps; ++s) robot->simulateStep(tau, dt / engine.substeps);
+      } catch (const std::runtime_error& e) {  // the engine keeps its last state and refuses to go on
+        r.engine_refused_at_s = now - setup.replay_start_s;
+        r.engine_error = e.what();
+        break;
+      }
+    }
     ++r.ticks;
     const double z = robot->q()[2];
     const Eigen::Vector4d quat = robot->q().segment<4>(3);

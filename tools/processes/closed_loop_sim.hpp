@@ -49,6 +49,10 @@ struct ClosedLoopResult {
   double min_base_z_m = 1e9, min_base_z_time_s = 0.0;
   double max_tilt_rad = 0.0;     ///< base tilt from upright (rad)
   double fell_at_s = -1.0;       ///< first time (s after the replay start) below fallen_below_m
+  /// Time (s after the replay start) at which the robot's engine refused a step (a diverged
+  /// simulation: runaway velocity); the run ends there. Negative when it never did.
+  double engine_refused_at_s = -1.0;
+  std::string engine_error;      ///< the engine's message then
   std::uint64_t reseeds = 0;
   /// Re-seeding ticks by ReseedReason (index = the enum's value, 0 unused).
   std::array<std::uint64_t, 7> reseed_ticks_by_reason{};
