@@ -381,6 +381,20 @@ TEST(QpModePivot, ASpinningBoxSlowsAtFrictionsTwistThenHolds) {
 // with nothing else standing would hold it, BalanceLayer::heldStance.)
 class QpModeSlide : public ::testing::TestWithParam<std::string> {};
 
+// The box's reference at @p t: thrown from 0.3 m above its resting height @p z_rest at 1 m/s
+// up, moving along x at @p v0 (a ballistic flight: it needs no support).
+ReferenceFrame thrownBox(const ModelInfo& info, double z_rest, double v0, double t) {
+  ReferenceFrame ref(info.nq, info.nv);
+  ref.time_s = t;
+  ref.q << v0 * t, 0, z_rest + 0.3 + t - 0.5 * kStandardGravity * t * t, 1, 0, 0, 0;
+  ref.v.setZero();
+  ref.v[0] = v0;
+  ref.v[2] = 1.0 - kStandardGravity * t;
+  ref.vdot.setZero();
+  ref.vdot[2] = -kStandardGravity;
+  return ref;
+}
+
 TEST_P(QpModeSlide, ABoxSlidingOnTheGroundSlowsAtMuGThenSticks) {
   auto model = test::makeModel(GetParam(), urdf::loadUrdfFile(test::testModelPath("floating_box.urdf")),
                                ModelOptions{});
@@ -392,17 +406,7 @@ TEST_P(QpModeSlide, ABoxSlidingOnTheGroundSlowsAtMuGThenSticks) {
     q << 0, 0, 0, 1, 0, 0, 0;
     return standingBaseHeight(*model, q);
   }();
-  auto reference = [&](double t) {  // thrown from 0.3 m above the ground, 1 m/s up
-    ReferenceFrame ref(info.nq, info.nv);
-    ref.time_s = t;
-    ref.q << v0 * t, 0, z_rest + 0.3 + t - 0.5 * kStandardGravity * t * t, 1, 0, 0, 0;
-    ref.v.setZero();
-    ref.v[0] = v0;
-    ref.v[2] = 1.0 - kStandardGravity * t;
-    ref.vdot.setZero();
-    ref.vdot[2] = -kStandardGravity;
-    return ref;
-  };
+  auto reference = [&](double t) { return thrownBox(info, z_rest, v0, t); };
   for (const bool slip : {true, false}) {
     SCOPED_TRACE(slip ? "slides" : "sticks");
     FilterOptions options = test::qpDefaults(dt);
@@ -502,17 +506,7 @@ TEST_P(QpModeSlide, AFallbackWhileSlidingHoldsTheLinkWithoutTheFailedSolvesItera
   q0 << 0, 0, 0, 1, 0, 0, 0;
   q0[2] = standingBaseHeight(*model, q0);
   v_start[0] = v0;
-  auto reference = [&](double t) {  // flying above the box, as in the test above
-    ReferenceFrame ref(info.nq, info.nv);
-    ref.time_s = t;
-    ref.q << v0 * t, 0, q0[2] + 0.3 + t - 0.5 * kStandardGravity * t * t, 1, 0, 0, 0;
-    ref.v.setZero();
-    ref.v[0] = v0;
-    ref.v[2] = 1.0 - kStandardGravity * t;
-    ref.vdot.setZero();
-    ref.vdot[2] = -kStandardGravity;
-    return ref;
-  };
+  auto reference = [&](double t) { return thrownBox(info, q0[2], v0, t); };
   FilterOptions options = test::qpDefaults(dt);
   options.qp.tangential_slip = true;
   options.qp.release_transition_s = 1.0;
