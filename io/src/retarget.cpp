@@ -481,6 +481,23 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
                        "BVH joint \"" + name + "\" not found in " + bvh.source);
     return j;
   };
+  // A mapping most of whose links the model does not have was written for another robot.
+  {
+    const int total = static_cast<int>(mapping.segments.size()) + 1;
+    std::string missing;
+    int found = 0;
+    auto look = [&](const std::string& link) {
+      if (info.findBody(link) >= 0) ++found;
+      else if (missing.size() < 60) missing += (missing.empty() ? "\"" : ", \"") + link + "\"";
+    };
+    look(mapping.root_link);
+    for (const RetargetSegment& seg : mapping.segments) look(seg.link);
+    if (2 * found < total)
+      throw InputError(mapping.source, 0,
+                       "only " + std::to_string(found) + " of its " + std::to_string(total) +
+                           " links are links of model " + info.name + " (not: " + missing +
+                           (missing.size() >= 60 ? ", ..." : "") + "): a mapping written for another robot?");
+  }
   auto body = [&](const std::string& name, int line) {
     const int b = info.findBody(name);
     if (b < 0)

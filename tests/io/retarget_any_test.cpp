@@ -289,6 +289,29 @@ TEST(RetargetAnyUrdf, ChainModeRejectsAGroupOfMoreThanThreeJoints) {
   }
 }
 
+// A mapping given the wrong model says so, and a misspelt link is named with its line.
+TEST(RetargetAnyUrdf, AMappingForAnotherRobotIsToldApartFromAMisspeltLink) {
+  const std::string path = writeMiniBvh({knownAngles(0.0), knownAngles(1.0)}, "mini_other.bvh");
+  auto human = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  try {
+    retargetBvhFile(path, parseRetargetMapping(kChainMapping, "mini.yaml"), *human);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 0) << e.what();
+    EXPECT_NE(e.reason().find("only 0 of its 12 links"), std::string::npos) << e.what();
+    EXPECT_NE(e.reason().find("another robot"), std::string::npos) << e.what();
+  }
+  std::string text = kChainMapping;
+  text.replace(text.find("tibia_l"), 7, "tibai_l");
+  try {
+    retargetBvhFile(path, parseRetargetMapping(text, "typo.yaml"), *test::makeMiniHumanoid());
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 12) << e.what();
+    EXPECT_NE(e.reason().find("link \"tibai_l\" not in model"), std::string::npos) << e.what();
+  }
+}
+
 TEST(KinematicTree, ChoosesTheTrunkByStructure) {
   auto m = test::makeMiniHumanoid();
   EXPECT_EQ(m->info().body_names[static_cast<std::size_t>(chooseTrunkBody(*m))], "chest");
