@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include <Eigen/Geometry>
 
@@ -23,6 +24,17 @@ StreamOptions streamOptions(const RealtimeOptions& options, double silence_s) {
 // A play time held back (a late sender) catches up at most this fast (× real time).
 constexpr double kCatchUpRate = 1.5;
 
+// The frames the buffer keeps: those of the reference delay and of the longest silence a
+// stream survives (the play time then lags the newest frame by both), sent at up to
+// RealtimeOptions::kMaxSenderRateHz. Options the constructor refuses get the least.
+int bufferCapacity(const RealtimeOptions& o) {
+  const double span = o.reference_delay_s + o.stale_timeout_s;
+  if (!(span >= 0.0) || !(o.reference_delay_s <= RealtimeOptions::kMaxReferenceDelayS) ||
+      !(o.stale_timeout_s <= RealtimeOptions::kMaxReferenceDelayS))
+    return 2;
+  return static_cast<int>(std::ceil(span * RealtimeOptions::kMaxSenderRateHz)) + 2;
+}
+
 }  // namespace
 
 RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,
@@ -31,7 +43,7 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
     : model_(model),
       options_(options),
       filter_(model, filter_options, qp_solver),
-      buffer_(model.nq(), model.nv(), model.info().floating_base),
+      buffer_(model.nq(), model.nv(), model.info().floating_base, bufferCapacity(options)),
       references_(streamOptions(options, options.stale_timeout_s)),
       states_(streamOptions(options, options.measured_state_timeout_s)),
       hold_(hold_posture),
@@ -44,6 +56,10 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
   if (!std::isfinite(options.stream_blend_s) || options.stream_blend_s < 0.0 ||
       !std::isfinite(options.reference_delay_s) || options.reference_delay_s < 0.0)
     throw std::invalid_argument("RealtimeOptions: stream_blend_s and reference_delay_s must be finite and >= 0");
+  if (options.reference_delay_s > RealtimeOptions::kMaxReferenceDelayS ||
+      !(options.stale_timeout_s <= RealtimeOptions::kMaxReferenceDelayS))
+    throw std::invalid_argument("RealtimeOptions: reference_delay_s and stale_timeout_s must be <= " +
+                                std::to_string(RealtimeOptions::kMaxReferenceDelayS) + " s");
   filter_.reset(hold_);
 }
 

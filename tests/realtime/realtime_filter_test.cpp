@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <regex>
 #include <sstream>
 
@@ -122,6 +123,11 @@ TEST_F(Realtime, BadOptionsThrow) {
   RealtimeOptions delay;
   delay.reference_delay_s = std::nan("");
   EXPECT_THROW(RealtimeFilter(*model_, FilterOptions{}, delay, standingHold(*model_)), std::invalid_argument);
+  delay.reference_delay_s = 10.5;  // its frames are kept: bounded
+  EXPECT_THROW(RealtimeFilter(*model_, FilterOptions{}, delay, standingHold(*model_)), std::invalid_argument);
+  RealtimeOptions silence;
+  silence.stale_timeout_s = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(RealtimeFilter(*model_, FilterOptions{}, silence, standingHold(*model_)), std::invalid_argument);
 }
 
 TEST_F(Realtime, FramesGoingBackInTimeAreRejected) {
@@ -162,6 +168,40 @@ double runStream(RealtimeFilter& rt, const std::vector<ReferenceFrame>& frames, 
                                 .tail(nj).cwiseAbs().maxCoeff());
   }
   return worst;
+}
+
+// The sample lies the reference delay behind the newest frame at any sender's rate: a
+// 1 kHz sender with the default 50 ms, and a 60 Hz one with 0.4 s. Before, the buffer kept
+// 16 frames (16 ms at 1 kHz, 0.27 s at 60 Hz): the sample fell before the oldest frame and
+// held that frame's pose at rest, a reference that stepped and never moved.
+TEST_F(Realtime, TheReferenceDelayIsHonouredAtAnySendersRate) {
+  const int nj = model_->nj();
+  for (const auto& [period_ticks, delay_s] : {std::pair{1, 0.05}, std::pair{16, 0.4}}) {
+    RealtimeOptions options;
+    options.reference_delay_s = delay_s;
+    RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
+    double worst_pose = 0.0, worst_lag = 0.0, fastest = 0.0;
+    for (int tick = 0; tick < 1400; ++tick) {
+      const double now = 0.001 * tick;
+      if (tick % period_ticks == 0) {
+        ReferenceFrame f = frames_[static_cast<std::size_t>(tick)];
+        f.time_s += kSenderClock;
+        ASSERT_TRUE(rt.addReference(f, now));
+      }
+      rt.tick(now);
+      if (now < delay_s + 0.2) continue;  // the start: the stream's first frame, then the blend
+      const ReferenceFrame& r = rt.lastReference();
+      const double t = r.time_s - kSenderClock;
+      worst_lag = std::max(worst_lag, std::abs(now - t - delay_s));
+      worst_pose = std::max(worst_pose,
+                            (r.q - frames_[static_cast<std::size_t>(std::lround(t * 1000.0))].q).tail(nj).cwiseAbs().maxCoeff());
+      fastest = std::max(fastest, r.v.tail(nj).cwiseAbs().maxCoeff());
+    }
+    SCOPED_TRACE("a frame every " + std::to_string(period_ticks) + " ms, delay " + std::to_string(delay_s) + " s");
+    EXPECT_LT(worst_lag, 1e-9);
+    EXPECT_LT(worst_pose, period_ticks == 1 ? 1e-12 : 2e-3);
+    EXPECT_GT(fastest, 0.1) << "the sample moves with the stream";
+  }
 }
 
 TEST_F(Realtime, OneFutureStampedFrameDoesNotInterruptTheRealStream) {

@@ -43,8 +43,13 @@ struct RealtimeOptions {
   /// instead of stepping to the stream's (a captured walk starts with an elbow 0.6–1.7 rad
   /// from the standing pose). 0: no fade.
   double stream_blend_s = 1.0;
-  /// The reference is played this far (s) behind the newest received frame's time.
+  /// The reference is played this far (s) behind the newest received frame's time, at most
+  /// kMaxReferenceDelayS. The frames of that span and of stale_timeout_s are kept for a
+  /// sender of up to kMaxSenderRateHz (about 1 KB a frame for a 40-joint model: 0.3 MB with
+  /// the defaults); a faster sender keeps that many frames.
   double reference_delay_s = 0.05;
+  static constexpr double kMaxReferenceDelayS = 10.0;
+  static constexpr double kMaxSenderRateHz = 1000.0;
   /// Start a tick from the measured robot state when a new one has arrived (each state is
   /// used once); between states the filter runs on from its own state.
   bool use_measured_state = false;
@@ -73,7 +78,8 @@ class RealtimeFilter {
  public:
   /// Holds @p hold_posture (a reference frame of the model) until the first frame arrives.
   /// Throws std::invalid_argument on a negative or non-finite stream_blend_s or
-  /// reference_delay_s (and as MessageStream on bad stream options).
+  /// reference_delay_s, on a reference_delay_s or stale_timeout_s above
+  /// kMaxReferenceDelayS (and as MessageStream on bad stream options).
   RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,
                  const RealtimeOptions& options, const ReferenceFrame& hold_posture,
                  const QpSolverFactory& qp_solver = {});
