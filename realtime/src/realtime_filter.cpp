@@ -50,6 +50,8 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
       sample_(model.nq(), model.nv()),
       placed_(model.nq(), model.nv()),
       blend_offset_(Eigen::VectorXd::Zero(model.nv())),
+      blend_q0_(model.info().neutralConfiguration()),
+      blend_step_(Eigen::VectorXd::Zero(model.nv())),
       command_(Eigen::VectorXd::Zero(model.nj())),
       measured_q_(model.info().neutralConfiguration()),
       measured_v_(Eigen::VectorXd::Zero(model.nv())) {
@@ -103,22 +105,24 @@ bool RealtimeFilter::addReference(const ReferenceFrame& frame, double now_s,
   placed_.v = frame.v;
   placed_.vdot = frame.vdot;
   if (floating) moveBase(X_WS_, placed_.q);
-  // Soft start: q ⊕ w d with w = 1 − s(τ), s the quintic 0 → 1 over the blend time.
+  // Soft start (RealtimeOptions::stream_blend_s): q_robot ⊕ s(τ) (q ⊖ q_robot).
   if (starts) {
     if (options_.stream_blend_s > 0.0) differenceConfiguration(floating, placed_.q, robot, blend_offset_);
     else blend_offset_.setZero();
+    blend_q0_ = robot;  // same size: no allocation
   }
   const double tau = options_.stream_blend_s > 0.0
                          ? (frame.time_s - stream_start_s_) / options_.stream_blend_s
                          : 1.0;
   if (tau < 1.0) {
     const double T = options_.stream_blend_s, t2 = tau * tau;
-    const double w = 1.0 - t2 * tau * (10.0 - 15.0 * tau + 6.0 * t2);
-    const double wdot = -30.0 * t2 * (1.0 - tau) * (1.0 - tau) / T;
-    const double wddot = -60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / (T * T);
-    integrateConfiguration(floating, placed_.q, blend_offset_, w, placed_.q);
-    placed_.v += wdot * blend_offset_;
-    placed_.vdot += wddot * blend_offset_;
+    const double s = t2 * tau * (10.0 - 15.0 * tau + 6.0 * t2);
+    const double sdot = 30.0 * t2 * (1.0 - tau) * (1.0 - tau) / T;
+    const double sddot = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / (T * T);
+    differenceConfiguration(floating, blend_q0_, placed_.q, blend_step_);
+    integrateConfiguration(floating, blend_q0_, blend_step_, s, placed_.q);
+    placed_.vdot = s * placed_.vdot + 2.0 * sdot * placed_.v + sddot * blend_step_;
+    placed_.v = s * placed_.v + sdot * blend_step_;
   }
   if (!buffer_.push(placed_)) {
     ++counters_.frames_rejected;

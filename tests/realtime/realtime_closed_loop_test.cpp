@@ -28,14 +28,14 @@ std::vector<realtime::Clip> squatClips(const urdf::RobotDescription& robot) {
   return {{"squat", io::readReferenceMotion(test::sourcePath("data/squat_reference.csv"), model->info()).frames}};
 }
 
-// The squat, looped for 3 s in the QP mode with the robot on @p engine; each test adds the
-// disturbance it is about.
+// The squat, looped for 4 s in the QP mode with the robot on @p engine (the soft start's
+// 2 s, then two of the whole squat); each test adds the disturbance it is about.
 ClosedLoopSetup squatLoop(const std::string& engine) {
   ClosedLoopSetup setup;
   setup.robot_engine = engine;
   setup.filter.mode = FilterMode::kQp;
   setup.replay.loop = true;
-  setup.seconds = 3.0;
+  setup.seconds = 4.0;
   return setup;
 }
 
@@ -165,7 +165,7 @@ TEST_P(RealtimeClosedLoop, TheLoggedModelMismatchIsSmallWhileTheRobotSquatsOnFla
 // of an exception that loses the run's result (dynfilter-closed-loop exited with "error"):
 // the CMU walk in the paper mode (no torque limits in the solve) drives the robot's torques
 // from one limit to the other, the light axes (hip yaw) spin up, and each engine refuses a
-// step at a runaway velocity within the clip's first seconds (DART at 0.20 s, ODE at 1.35 s after
+// step at a runaway velocity within the clip's first seconds (DART at 1.30 s, ODE at 2.53 s after
 // the robot fell).
 TEST_P(RealtimeClosedLoop, ADivergedSimulationEndsTheRunWithItsTimeAndTheEnginesReason) {
   const auto robot = urdf::loadUrdfFile(test::humanFigurePath());

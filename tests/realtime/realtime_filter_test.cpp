@@ -28,6 +28,14 @@ ReferenceFrame standingHold(IDynamicsModel& model) {
   return hold;
 }
 
+// The real-time options with no soft start: the sample is compared with the stream itself
+// (the soft start has its own test).
+RealtimeOptions withoutSoftStart() {
+  RealtimeOptions options;
+  options.stream_blend_s = 0.0;
+  return options;
+}
+
 class Realtime : public testing::Test {
  protected:
   void SetUp() override {
@@ -39,7 +47,7 @@ class Realtime : public testing::Test {
 };
 
 TEST_F(Realtime, A60HzStreamIsTrackedAt1kHzWithCommandsWithinLimits) {
-  RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
+  RealtimeFilter rt(*model_, FilterOptions{}, withoutSoftStart(), standingHold(*model_));
   const ModelInfo& info = model_->info();
   double worst_joint_error = 0.0;
   for (int tick = 0; tick < 1400; ++tick) {
@@ -177,7 +185,7 @@ double runStream(RealtimeFilter& rt, const std::vector<ReferenceFrame>& frames, 
 TEST_F(Realtime, TheReferenceDelayIsHonouredAtAnySendersRate) {
   const int nj = model_->nj();
   for (const auto& [period_ticks, delay_s] : {std::pair{1, 0.05}, std::pair{16, 0.4}}) {
-    RealtimeOptions options;
+    RealtimeOptions options = withoutSoftStart();
     options.reference_delay_s = delay_s;
     RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
     double worst_pose = 0.0, worst_lag = 0.0, fastest = 0.0;
@@ -189,7 +197,7 @@ TEST_F(Realtime, TheReferenceDelayIsHonouredAtAnySendersRate) {
         ASSERT_TRUE(rt.addReference(f, now));
       }
       rt.tick(now);
-      if (now < delay_s + 0.2) continue;  // the start: the stream's first frame, then the blend
+      if (now < delay_s + 0.2) continue;  // the start: the stream's first frame held
       const ReferenceFrame& r = rt.lastReference();
       const double t = r.time_s - kSenderClock;
       worst_lag = std::max(worst_lag, std::abs(now - t - delay_s));
@@ -205,7 +213,7 @@ TEST_F(Realtime, TheReferenceDelayIsHonouredAtAnySendersRate) {
 }
 
 TEST_F(Realtime, OneFutureStampedFrameDoesNotInterruptTheRealStream) {
-  RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
+  RealtimeFilter rt(*model_, FilterOptions{}, withoutSoftStart(), standingHold(*model_));
   bool rejected = true;
   const double worst = runStream(
       rt, frames_, 1400, 100, [](int) { return kSenderClock; },
@@ -277,7 +285,7 @@ TEST_F(Realtime, ARestartedSenderIsFollowedWithinTheStaleTimeout) {
 }
 
 TEST_F(Realtime, AStrayOldFrameInsideALiveStreamIsRejected) {
-  RealtimeFilter rt(*model_, FilterOptions{}, RealtimeOptions{}, standingHold(*model_));
+  RealtimeFilter rt(*model_, FilterOptions{}, withoutSoftStart(), standingHold(*model_));
   int strays_accepted = 0;
   const double worst = runStream(
       rt, frames_, 1400, 100, [](int) { return kSenderClock; },
@@ -425,45 +433,68 @@ TEST_F(Realtime, AStreamCapturedElsewhereIsPlacedUnderTheRobot) {
   }
 }
 
-// Soft start: a stream whose joints are 0.3 rad from the robot's posture starts at the
-// robot's posture and is reached smoothly after stream_blend_s; without it the sample
-// steps by 0.3 rad.
-TEST_F(Realtime, AStreamStartsAtTheRobotsPostureAndBlendsIntoTheStream) {
+// Soft start: a stream whose joints are 0.3 rad from the robot's posture, and moving,
+// starts at the robot's posture and at rest, is q_robot + s(τ) (q_stream − q_robot) with
+// velocity s v_stream + ṡ (q_stream − q_robot) on the way (closed form at the frames' times,
+// joints), and is the stream itself after stream_blend_s; without it the sample steps by
+// 0.3 rad.
+TEST_F(Realtime, AStreamStartsAtTheRobotsPostureAtRestAndBlendsIntoTheStream) {
   const int nj = model_->nj();
   for (const double blend_s : {0.5, 0.0}) {
+    SCOPED_TRACE("blend " + std::to_string(blend_s) + " s");
     RealtimeOptions options;
     options.stream_blend_s = blend_s;
     RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
     Eigen::VectorXd previous = rt.filter().q();
-    const Eigen::VectorXd robot_at_start = rt.filter().q();
-    double largest_step = 0.0, worst_after = 0.0;
+    const Eigen::VectorXd q0 = rt.filter().q().tail(nj);
+    double largest_step = 0.0, worst_after = 0.0, worst_q = 0.0, worst_v = 0.0;
+    int closed_forms = 0;
+    auto frame = [&](int tick) {
+      ReferenceFrame f = frames_[static_cast<std::size_t>(tick)];
+      f.q.tail(nj).array() += 0.3;
+      f.time_s = kSenderClock + 0.001 * tick;
+      return f;
+    };
     for (int tick = 0; tick < 800; ++tick) {
       const double now = 0.001 * tick;
       if (tick % 16 == 0) {
-        ReferenceFrame f = frames_[static_cast<std::size_t>(tick)];
-        f.q.tail(nj).array() += 0.3;
-        f.time_s = kSenderClock + now;
-        ASSERT_TRUE(rt.addReference(f, now));
+        ASSERT_TRUE(rt.addReference(frame(tick), now));
       }
       rt.tick(now);
       const ReferenceFrame& r = rt.lastReference();
       if (tick == 0 && blend_s > 0.0) {
-        EXPECT_LT((r.q - robot_at_start).tail(nj).cwiseAbs().maxCoeff(), 1e-9) << "starts at the robot";
+        EXPECT_LT((r.q.tail(nj) - q0).cwiseAbs().maxCoeff(), 1e-9) << "starts at the robot";
+        EXPECT_LT(r.v.tail(nj).cwiseAbs().maxCoeff(), 1e-12) << "at rest";
       }
       largest_step = std::max(largest_step, (r.q - previous).tail(nj).cwiseAbs().maxCoeff());
       previous = r.q;
+      const double t = r.time_s - kSenderClock;
+      const int k = static_cast<int>(std::lround(t * 1000.0));
+      if (blend_s > 0.0 && t < blend_s && k % 16 == 0 && std::abs(t - 0.001 * k) < 1e-9) {
+        const ReferenceFrame f = frame(k);
+        const double tau = t / blend_s;
+        const double s = tau * tau * tau * (10.0 - 15.0 * tau + 6.0 * tau * tau);
+        const double sdot = 30.0 * tau * tau * (1.0 - tau) * (1.0 - tau) / blend_s;
+        const Eigen::VectorXd d = f.q.tail(nj) - q0;
+        worst_q = std::max(worst_q, (r.q.tail(nj) - (q0 + s * d)).cwiseAbs().maxCoeff());
+        worst_v = std::max(worst_v, (r.v.tail(nj) - (s * f.v.tail(nj) + sdot * d)).cwiseAbs().maxCoeff());
+        ++closed_forms;
+      }
       // After the blend (and the sway's start-up transient, coarse at 60 Hz).
-      if (r.time_s >= kSenderClock + std::max(blend_s, 0.1) + 0.01) {
-        const int i = static_cast<int>(std::lround((r.time_s - kSenderClock) * 1000.0));
-        Eigen::VectorXd q = frames_[static_cast<std::size_t>(i)].q;
+      if (t >= std::max(blend_s, 0.1) + 0.01) {
+        Eigen::VectorXd q = frames_[static_cast<std::size_t>(k)].q;
         q.tail(nj).array() += 0.3;
         worst_after = std::max(worst_after, (r.q - q).tail(nj).cwiseAbs().maxCoeff());
       }
     }
-    EXPECT_LT(worst_after, 2e-3) << "blend " << blend_s << ": then the stream itself";
+    EXPECT_LT(worst_after, 2e-3) << "then the stream itself";
     if (blend_s > 0.0) {
-      // 0.3 rad over 0.5 s with the quintic's peak slope 1.875: 1.1e-3 rad a tick, plus the motion.
-      EXPECT_LT(largest_step, 2e-3);
+      EXPECT_GE(closed_forms, 25);
+      EXPECT_LT(worst_q, 1e-12);
+      EXPECT_LT(worst_v, 1e-12);
+      // |d| ≤ 0.3 rad and the sway's ≤ 0.1 rad, over 0.5 s with the quintic's peak slope
+      // 1.875: 1.5e-3 rad a tick, plus the stream's own motion.
+      EXPECT_LT(largest_step, 2.5e-3);
       EXPECT_LT(rt.streamOffset().tail(nj).maxCoeff(), -0.29);
     } else {
       EXPECT_GT(largest_step, 0.29);

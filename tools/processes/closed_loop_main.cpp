@@ -3,7 +3,7 @@
 // faster than real time (closed_loop_sim.hpp): where and why a clip makes the robot fall.
 //
 //   dynfilter-closed-loop walk.csv [--robot ode|dart] [--seconds 10] [--mode qp|paper]
-//       [--no-balance-preview] [--no-align-reference] [--stream-blend-s 1]
+//       [--no-balance-preview] [--no-align-reference] [--stream-blend-s 2]
 //       [--sender-gap-s 0.08 --sender-gap-every-s 0.5] [--log run.txt]
 //
 // Prints the lowest base height and when, when the robot fell (base below 0.5 m), the

@@ -198,8 +198,9 @@ int main(int argc, char** argv) {
                "place each reference stream under the robot: x, y and yaw of its first frame "
                "onto the robot's base (default: on; off: frames are in the robot's world)");
   app.add_option("--stream-blend-s", rt_options.stream_blend_s,
-                 "soft start: fade the robot's offset from a new stream's first frame out over "
-                 "this time (0: none)")
+                 "soft start: the reference goes from the robot's posture, at rest, into a new "
+                 "stream over this time (0: none)")
+      ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   app.add_option("--stale-timeout-s", rt_options.stale_timeout_s, "hold posture after this silence");
   app.add_option("--reference-delay-s", rt_options.reference_delay_s,

@@ -36,13 +36,19 @@ struct RealtimeOptions {
   /// filter's base-error guard every tick). Heights, tilt, joints and the base-frame
   /// velocities are unchanged. false: the frames are in the robot's world frame already.
   bool align_to_robot = true;
-  /// Soft start of a stream (s): the difference between where the robot is when a stream
-  /// starts (or follows a stale hold) and the stream's first frame, q_robot ⊖ q_first,
-  /// is added to the stream's frames and faded out over this time (quintic, with its
-  /// velocity and acceleration), so that the reference starts at the robot's posture
-  /// instead of stepping to the stream's (a captured walk starts with an elbow 0.6–1.7 rad
-  /// from the standing pose). 0: no fade.
-  double stream_blend_s = 1.0;
+  /// Soft start of a stream (s): over this time T the reference goes from the robot's
+  /// posture when the stream starts (or follows a stale hold), at rest, into the stream:
+  /// q = q_robot ⊕ s(τ) (q_stream ⊖ q_robot), τ = t / T, s the quintic 0 → 1, with the
+  /// velocity s v_stream + ṡ (q_stream ⊖ q_robot) and the acceleration that go with it. The
+  /// reference so starts at the robot's posture (a captured walk starts with an elbow
+  /// 0.6–1.7 rad from the standing pose) and at rest, and the stream's motion comes in with
+  /// s: a standing robot is not asked at once for the motion of a clip that starts moving.
+  /// (Adding the posture offset to the stream and fading it out, as before 2026-11-30, asked
+  /// for it: the closed-loop G1 fell 0.9 s into the CMU walk, before its first step; now
+  /// about 2.0 s, docs/balance.md §33.) While s < 1 the reference moves faster than the
+  /// stream by ṡ (q_stream ⊖ q_robot): with T = 1 s that tipped the squat on DART after
+  /// sender gaps, hence 2 s. 0: no fade.
+  double stream_blend_s = 2.0;
   /// The reference is played this far (s) behind the newest received frame's time, at most
   /// kMaxReferenceDelayS. The frames of that span and of stale_timeout_s are kept for a
   /// sender of up to kMaxSenderRateHz (about 1 KB a frame for a 40-joint model: 0.3 MB with
@@ -114,8 +120,8 @@ class RealtimeFilter {
   /// The horizontal placement of the followed stream (RealtimeOptions::align_to_robot):
   /// world-from-stream, a rotation about z and a translation in x, y (identity without).
   const Eigen::Isometry3d& streamPlacement() const { return X_WS_; }
-  /// The followed stream's soft-start offset q_robot ⊖ q_first (nv, zero without a blend;
-  /// RealtimeOptions::stream_blend_s), faded out over the stream's first stream_blend_s.
+  /// The followed stream's offset from the robot when it started, q_robot ⊖ q_first (nv,
+  /// zero without a blend), which the soft start (RealtimeOptions::stream_blend_s) closes.
   const Eigen::VectorXd& streamOffset() const { return blend_offset_; }
   /// The reference sample the last tick used (its time on the sender's clock).
   const ReferenceFrame& lastReference() const { return sample_; }
@@ -134,7 +140,9 @@ class RealtimeFilter {
   MessageStream references_, states_;
   ReferenceFrame hold_, sample_, placed_;
   Eigen::Isometry3d X_WS_ = Eigen::Isometry3d::Identity();
-  Eigen::VectorXd blend_offset_;  // q_robot ⊖ q_first of the stream (nv), faded out
+  Eigen::VectorXd blend_offset_;  // q_robot ⊖ q_first of the stream (nv)
+  Eigen::VectorXd blend_q0_;      // q_robot when the stream started (nq)
+  Eigen::VectorXd blend_step_;    // q_stream ⊖ q_robot of the frame being placed (nv)
   Eigen::VectorXd command_, measured_q_, measured_v_;
   double clock_offset_s_ = 0.0;  // local − sender
   double stream_start_s_ = 0.0;  // the followed stream's first frame (sender's clock)
