@@ -45,8 +45,9 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
     sed -n 's/^\(test_[a-z0-9_]*\|fuzz_replay_[a-z0-9_]*\): phony$/\1/p' |
     grep -vxE 'test_processes')"
   cmake --build build-asan --target $asan_targets
-  # real_descriptions_* and model_info_* run dynfilter-model-info (and the TALOS walk,
-  # dynfilter-bvh2ref and dynfilter-offline), programs this build does not make
+  # real_descriptions_*, model_info_* and diagnose_reseeds_kick run dynfilter-model-info
+  # (and the TALOS walk and the kick's diagnosis, dynfilter-bvh2ref and dynfilter-offline),
+  # programs this build does not make
   # (test executables only); the loaders and both backends run here under the test_urdf
   # and test_backends cases of the same descriptions' edge cases.
   # ReferenceCleanup.ShippedClipsHaveStillFeetAndNoJumps cleans every shipped clip up with
@@ -63,7 +64,7 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E "$(printf '%s|' \
     '_NOT_BUILT$' '^LcmProcesses\.' '^soak' '^paper_results' '^plot_lcm_log$' '^exported_package' \
     '^lcm_python_types$' '^lcm_spy_' '^human_figure_is_regenerated' '^core_include_guard' \
-    '^examples_build' '^python_' '^balance_matrix_' '^real_descriptions_' '^model_info_' \
+    '^examples_build' '^python_' '^balance_matrix_' '^real_descriptions_' '^model_info_' '^diagnose_reseeds_kick$' \
     '^ReferenceCleanup\.ShippedClipsHaveStillFeetAndNoJumps$' '^Engines/RealtimeClosedLoop\.' \
     '^ClosedLoopOnDart\.WithDartsDefaultContactsTheFeetRock$' \
     | sed 's/|$//')"
