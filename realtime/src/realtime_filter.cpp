@@ -24,14 +24,23 @@ StreamOptions streamOptions(const RealtimeOptions& options, double silence_s) {
 // A play time held back (a late sender) catches up at most this fast (× real time).
 constexpr double kCatchUpRate = 1.5;
 
+// Throws std::invalid_argument on the options RealtimeFilter refuses; returns them.
+const RealtimeOptions& validated(const RealtimeOptions& options) {
+  if (!std::isfinite(options.stream_blend_s) || options.stream_blend_s < 0.0 ||
+      !std::isfinite(options.reference_delay_s) || options.reference_delay_s < 0.0)
+    throw std::invalid_argument("RealtimeOptions: stream_blend_s and reference_delay_s must be finite and >= 0");
+  if (options.reference_delay_s > RealtimeOptions::kMaxReferenceDelayS ||
+      !(options.stale_timeout_s <= RealtimeOptions::kMaxReferenceDelayS))
+    throw std::invalid_argument("RealtimeOptions: reference_delay_s and stale_timeout_s must be <= " +
+                                std::to_string(RealtimeOptions::kMaxReferenceDelayS) + " s");
+  return options;
+}
+
 // The frames the buffer keeps: those of the reference delay and of the longest silence a
 // stream survives (the play time then lags the newest frame by both), sent at up to
-// RealtimeOptions::kMaxSenderRateHz. Options the constructor refuses get the least.
+// RealtimeOptions::kMaxSenderRateHz. (A negative stale timeout is refused by MessageStream.)
 int bufferCapacity(const RealtimeOptions& o) {
-  const double span = o.reference_delay_s + o.stale_timeout_s;
-  if (!(span >= 0.0) || !(o.reference_delay_s <= RealtimeOptions::kMaxReferenceDelayS) ||
-      !(o.stale_timeout_s <= RealtimeOptions::kMaxReferenceDelayS))
-    return 2;
+  const double span = std::max(0.0, o.reference_delay_s + o.stale_timeout_s);
   return static_cast<int>(std::ceil(span * RealtimeOptions::kMaxSenderRateHz)) + 2;
 }
 
@@ -41,7 +50,7 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
                                const RealtimeOptions& options, const ReferenceFrame& hold_posture,
                                const QpSolverFactory& qp_solver)
     : model_(model),
-      options_(options),
+      options_(validated(options)),
       filter_(model, filter_options, qp_solver),
       buffer_(model.nq(), model.nv(), model.info().floating_base, bufferCapacity(options)),
       references_(streamOptions(options, options.stale_timeout_s)),
@@ -55,13 +64,6 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
       command_(Eigen::VectorXd::Zero(model.nj())),
       measured_q_(model.info().neutralConfiguration()),
       measured_v_(Eigen::VectorXd::Zero(model.nv())) {
-  if (!std::isfinite(options.stream_blend_s) || options.stream_blend_s < 0.0 ||
-      !std::isfinite(options.reference_delay_s) || options.reference_delay_s < 0.0)
-    throw std::invalid_argument("RealtimeOptions: stream_blend_s and reference_delay_s must be finite and >= 0");
-  if (options.reference_delay_s > RealtimeOptions::kMaxReferenceDelayS ||
-      !(options.stale_timeout_s <= RealtimeOptions::kMaxReferenceDelayS))
-    throw std::invalid_argument("RealtimeOptions: reference_delay_s and stale_timeout_s must be <= " +
-                                std::to_string(RealtimeOptions::kMaxReferenceDelayS) + " s");
   filter_.reset(hold_);
 }
 

@@ -233,9 +233,8 @@ TEST_F(Realtime, OneFutureStampedFrameDoesNotInterruptTheRealStream) {
 }
 
 TEST_F(Realtime, AFutureStampedFirstFrameThenTheRealStreamIsTrackedWithinTheStaleTimeout) {
-  RealtimeOptions options;
+  RealtimeOptions options = withoutSoftStart();
   ASSERT_EQ(options.stale_timeout_s, 0.25);
-  options.stream_blend_s = 0.0;  // compared with the stream itself (no soft start)
   RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
   const double worst = runStream(
       rt, frames_, 1000, 150, [](int) { return kSenderClock; },
@@ -254,8 +253,7 @@ TEST_F(Realtime, AFutureStampedFirstFrameThenTheRealStreamIsTrackedWithinTheStal
 }
 
 TEST_F(Realtime, ARestartedSenderIsFollowedWithinTheStaleTimeout) {
-  RealtimeOptions options;
-  options.stream_blend_s = 0.0;  // compared with the stream itself (no soft start)
+  RealtimeOptions options = withoutSoftStart();
   RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
   // At tick 608 the sender restarts: its clock (and sequence) start again at 0.
   auto offset = [](int tick) { return tick < 608 ? kSenderClock : -0.608; };
@@ -325,8 +323,7 @@ TEST_F(Realtime, RobotStatesFollowTheirOwnStream) {
 // that frame, at rest, on the sender's clock, instead of sampling before it (where the
 // balance layer's preview, which starts at that frame, had nothing to agree with).
 TEST_F(Realtime, TheSampleNeverPrecedesTheStreamsFirstFrame) {
-  RealtimeOptions options;
-  options.stream_blend_s = 0.0;
+  RealtimeOptions options = withoutSoftStart();
   RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
   const int nj = model_->nj();
   double previous_time = -1e300;
@@ -356,8 +353,7 @@ TEST_F(Realtime, TheSampleNeverPrecedesTheStreamsFirstFrame) {
 // wait it catches up at most 1.5× real time. Before, it ran past the newest frame (its pose
 // at rest) and jumped on by up to 150 ms of motion when the next frame came.
 TEST_F(Realtime, AfterASendersSilenceTheSampleCatchesUpWithoutJumping) {
-  RealtimeOptions options;
-  options.stream_blend_s = 0.0;
+  RealtimeOptions options = withoutSoftStart();
   RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
   double previous = -1.0, newest = -1.0, largest_advance = 0.0;
   int waiting_ticks = 0;
@@ -402,9 +398,8 @@ TEST_F(Realtime, AStreamCapturedElsewhereIsPlacedUnderTheRobot) {
     return f;
   };
   for (const bool align : {true, false}) {
-    RealtimeOptions options;
+    RealtimeOptions options = withoutSoftStart();
     options.align_to_robot = align;
-    options.stream_blend_s = 0.0;
     RealtimeFilter rt(*model_, FilterOptions{}, options, standingHold(*model_));
     const Eigen::Vector2d robot_xy = rt.filter().q().head<2>();
     double worst_m = 0.0;
