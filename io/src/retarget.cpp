@@ -19,6 +19,7 @@
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/io/pose_ik.hpp"
+#include "limb_scaling.hpp"
 
 namespace dynfilter::io {
 namespace {
@@ -215,8 +216,14 @@ class MappingParser {
                 else if (mode == "ik") m.mode = RetargetMode::kIk;
                 else fail(v.Mark(), "mode: expected chain or ik, got \"" + mode + "\"");
               } else if (k == "ik") {
-                readMap(v, "ik", {"scale", "max_iterations", "posture_weight"},
+                readMap(v, "ik", {"scale", "scaling", "max_iterations", "posture_weight"},
                         [&](const std::string& ik, const YAML::Node& iv) {
+                  if (ik == "scaling") {
+                    const std::string scaling = text(iv, "ik.scaling");
+                    if (scaling == "limbs") m.ik.limb_scaling = true;
+                    else if (scaling == "uniform") m.ik.limb_scaling = false;
+                    else fail(iv.Mark(), "ik.scaling: expected limbs or uniform, got \"" + scaling + "\"");
+                  }
                   if (ik == "scale") {
                     m.ik.scale = number(iv, "ik.scale");
                     if (m.ik.scale < 0) fail(iv.Mark(), "ik.scale: must be >= 0 (0: auto)");
@@ -706,6 +713,12 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
 
   // IK mode: scale, targets and solver settings.
   std::vector<IkTarget> targets;
+  std::vector<detail::LimbSegment> limb_segments;  // empty: uniform scaling
+  std::vector<detail::LimbAnchor> limb_anchors;
+  std::vector<std::size_t> limb_order;
+  std::vector<Eigen::Vector3d> placed;
+  constexpr int kLimbRounds = 10;
+  constexpr double kLimbTolerance_m = 1e-6;
   Eigen::VectorXd posture_weights = Eigen::VectorXd::Zero(info.nv);
   double scale = 1.0;
   if (ik_mode) {
@@ -759,6 +772,31 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
       result.targets[c].has_position = targets[c].position_weight > 0;
       result.targets[c].has_orientation = targets[c].orientation_weight > 0;
     }
+    if (mapping.ik.limb_scaling) {
+      limb_segments.resize(segs.size());
+      placed.resize(segs.size());
+      for (std::size_t c = 0; c < segs.size(); ++c) {
+        detail::LimbSegment& l = limb_segments[c];
+        l.bvh_joint = segs[c].bvh_joint;
+        l.body = segs[c].body;
+        l.parent = segs[c].parent;
+        l.joints = segs[c].joints;
+        l.p_BP = targets[c].p_BP;
+        l.has_position = targets[c].position_weight > 0;
+      }
+      Eigen::Vector3d rest_base = Eigen::Vector3d::Zero();
+      for (const int j : base_joints) rest_base += rest[static_cast<std::size_t>(j)];
+      rest_base /= static_cast<double>(base_joints.size());
+      limb_anchors = detail::findLimbAnchors(limb_segments, bvh, rest, rest_base, R_conv, scale, tree,
+                                             model, q0, limb_order);
+      for (std::size_t c = 1; c < segs.size(); ++c) {
+        const detail::LimbAnchor& a = limb_anchors[c];
+        TargetReport& r = result.targets[c];
+        r.limb_from = a.bvh_name;
+        r.limb_ratio = a.ratio;
+        r.limb_scaled = a.segment >= 0 || a.joint_body >= 0;
+      }
+    }
   }
   IkOptions ik_options;
   ik_options.max_iterations = mapping.ik.max_iterations;
@@ -803,8 +841,26 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
         q_ik.head<3>() = targets[0].p_WP - R[0] * targets[0].p_BP;
         q_ik.segment<4>(3) = f.q.segment<4>(3);
       }
-      const IkResult ik = solvePoseIk(model, targets, q0, posture_weights, ik_options, q_ik);
-      (void)ik;
+      if (limb_segments.empty()) {
+        solvePoseIk(model, targets, q0, posture_weights, ik_options, q_ik);
+      } else {
+        // The anchors (hip and shoulder pivots) move with the solution: place the targets,
+        // solve, and place them again from the solution until they stay.
+        model.setState(q_ik, v0);
+        detail::placeLimbTargets(limb_segments, limb_anchors, limb_order, X, basePoint(X), R_conv,
+                                 model, targets);
+        for (int round = 0; round < kLimbRounds; ++round) {
+          solvePoseIk(model, targets, q0, posture_weights, ik_options, q_ik);
+          for (std::size_t c = 0; c < segs.size(); ++c) placed[c] = targets[c].p_WP;
+          model.setState(q_ik, v0);
+          detail::placeLimbTargets(limb_segments, limb_anchors, limb_order, X, basePoint(X), R_conv,
+                                   model, targets);
+          double moved = 0.0;
+          for (std::size_t c = 0; c < segs.size(); ++c)
+            moved = std::max(moved, (targets[c].p_WP - placed[c]).norm());
+          if (moved < kLimbTolerance_m) break;
+        }
+      }
       for (std::size_t c = 0; c < segs.size(); ++c) {
         double ep = 0.0, er = 0.0;
         ikTargetError(model, targets[c], ep, er);
@@ -1047,7 +1103,14 @@ std::string formatTargetReport(const RetargetResult& result) {
                     t.orientation_max_rad * 180.0 / M_PI);
       rot = line;
     }
-    std::snprintf(line, sizeof line, "  %-24s %-17s %s\n", t.link.c_str(), pos.c_str(), rot.c_str());
+    std::string limb;
+    if (!t.limb_from.empty()) {
+      std::snprintf(line, sizeof line, t.limb_scaled ? "   limb x %.3f from %s" : "   uniform (limb x %.3f from %s: out of range)",
+                    t.limb_ratio, t.limb_from.c_str());
+      limb = line;
+    }
+    std::snprintf(line, sizeof line, "  %-24s %-17s %-15s%s\n", t.link.c_str(), pos.c_str(), rot.c_str(),
+                  limb.c_str());
     out << line;
   }
   return out.str();

@@ -122,10 +122,11 @@ std::map<std::string, double> knownAngles(double s) {
   return out;
 }
 
-std::string writeMiniBvh(const std::vector<std::map<std::string, double>>& frames, const char* name) {
+std::string writeMiniBvh(const std::vector<std::map<std::string, double>>& frames, const char* name,
+                         const std::string& hierarchy = kMiniBvh) {
   const std::string path = ::testing::TempDir() + "/" + name;
   std::ofstream out(path);
-  out << kMiniBvh << "Frames: " << frames.size() << "\nFrame Time: 0.01\n";
+  out << hierarchy << "Frames: " << frames.size() << "\nFrame Time: 0.01\n";
   for (std::size_t k = 0; k < frames.size(); ++k) {
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.17g 0 0.9 %.17g 0 0", 0.01 * static_cast<double>(k), 10.0 * k);
@@ -246,6 +247,83 @@ TEST(RetargetAnyUrdf, IkModeStaysInsideTheLimits) {
     }
   for (const JointLimitReport& l : r.limits) EXPECT_EQ(l.frames_outside, 0) << l.joint;
   EXPECT_NEAR(r.motion.frames[1].q[info.configurationIndex(info.findJoint("genu_l"))], 0.0, 1e-12);
+}
+
+// The mini humanoid's hierarchy with other limb lengths: every OFFSET "0 0 <from>" (both
+// sides) becomes "0 0 <to>".
+std::string miniBvhWithLimbs(const std::vector<std::pair<std::string, std::string>>& lengths) {
+  std::string h = kMiniBvh;
+  for (const auto& [from, to] : lengths)
+    for (std::size_t at = h.find("OFFSET 0 0 " + from); at != std::string::npos;
+         at = h.find("OFFSET 0 0 " + from, at + 1))
+      h.replace(at, 11 + from.size(), "OFFSET 0 0 " + to);
+  return h;
+}
+
+// A capture of other proportions (thighs 0.40 m for the model's 0.30, shanks 0.26 for 0.32,
+// upper arms 0.31 for 0.25) gives the model the capture's joint angles: each target is
+// placed from the robot's hip, knee, shoulder or elbow along the capture's bone, scaled by
+// the limb's ratio (ik.scaling: limbs, the default). Each replacement below makes a length
+// no later one matches. The uniform scaling about the base
+// puts the same targets where the model cannot reach them with those angles.
+TEST(RetargetAnyUrdf, IkModeLimbScalingGivesOtherProportionsTheCapturesAngles) {
+  auto model = test::makeMiniHumanoid();
+  const std::vector<std::map<std::string, double>> truth = {knownAngles(0.2), knownAngles(1.0),
+                                                            knownAngles(0.6)};
+  const std::string path = writeMiniBvh(
+      truth, "mini_limbs.bvh", miniBvhWithLimbs({{"-0.30", "-0.40"}, {"-0.32", "-0.26"}, {"-0.25", "-0.31"}}));
+  const RetargetMapping limbs = parseRetargetMapping(kIkMapping, "ik.yaml");
+  ASSERT_TRUE(limbs.ik.limb_scaling);
+  const RetargetResult r = retargetBvhFile(path, limbs, *model);
+  expectKnownAngles(r, model->info(), truth, 1e-3);
+  std::map<std::string, const TargetReport*> report;
+  for (const TargetReport& t : r.targets) report[t.link] = &t;
+  EXPECT_TRUE(report.at("tibia_l")->limb_scaled);
+  EXPECT_EQ(report.at("tibia_l")->limb_from, "LHip");  // the hip's pivot: its three axes meet there
+  EXPECT_NEAR(report.at("tibia_l")->limb_ratio, 0.30 / 0.40, 1e-9);
+  EXPECT_NEAR(report.at("sole_r")->limb_ratio, 0.32 / 0.26, 1e-9);
+  EXPECT_EQ(report.at("sole_r")->limb_from, "RKnee");
+  EXPECT_NEAR(report.at("ulna_l")->limb_ratio, 0.25 / 0.31, 1e-9);
+  EXPECT_NEAR(report.at("humerus_r")->limb_ratio, 1.0, 1e-9);  // from the chest: same shoulders
+  for (const TargetReport& t : r.targets) EXPECT_LT(t.position_max_m, 1e-4) << t.link;
+  EXPECT_NE(formatTargetReport(r).find("limb x 0.750 from LHip"), std::string::npos) << formatTargetReport(r);
+
+  RetargetMapping uniform = parseRetargetMapping(kIkMapping, "ik.yaml");
+  uniform.ik.limb_scaling = false;
+  const RetargetResult u = retargetBvhFile(path, uniform, *model);
+  const ModelInfo& info = model->info();
+  const int knee = info.configurationIndex(info.findJoint("genu_l"));
+  EXPECT_GT(std::fabs(u.motion.frames[1].q[knee] - truth[1].at("genu_l")), 0.1);
+  for (const TargetReport& t : u.targets) EXPECT_FALSE(t.limb_scaled) << t.link;
+}
+
+// A limb whose ratio is far from the uniform scale (a capture's shank a third of the
+// model's: more likely a bone that does not correspond than a body) keeps the uniform
+// scaling, and the report says so; a bad `ik.scaling` is named.
+TEST(RetargetAnyUrdf, IkModeLimbRatioOutOfRangeKeepsUniformScaling) {
+  auto model = test::makeMiniHumanoid();
+  const std::string path =
+      writeMiniBvh({knownAngles(0.2), knownAngles(0.4)}, "mini_short.bvh", miniBvhWithLimbs({{"-0.32", "-0.10"}}));
+  const RetargetResult r = retargetBvhFile(path, parseRetargetMapping(kIkMapping, "ik.yaml"), *model);
+  for (const TargetReport& t : r.targets) {
+    if (t.link == "sole_l" || t.link == "sole_r") {
+      EXPECT_FALSE(t.limb_scaled) << t.link;
+      EXPECT_NEAR(t.limb_ratio, 3.2, 1e-9) << t.link;
+    } else if (t.link == "tibia_l" || t.link == "ulna_r") {
+      EXPECT_TRUE(t.limb_scaled) << t.link;
+    }
+  }
+  EXPECT_NE(formatTargetReport(r).find("uniform (limb x 3.200 from LKnee: out of range)"), std::string::npos)
+      << formatTargetReport(r);
+  std::string text = kIkMapping;
+  text.replace(text.find("ik: {"), 5, "ik: {scaling: wide, ");
+  try {
+    parseRetargetMapping(text, "bad.yaml");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 5) << e.what();
+    EXPECT_NE(e.reason().find("ik.scaling: expected limbs or uniform"), std::string::npos) << e.what();
+  }
 }
 
 TEST(RetargetAnyUrdf, UnmappedJointsAreAnErrorUnlessAllowed) {

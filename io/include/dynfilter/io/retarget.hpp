@@ -55,7 +55,14 @@
 /// orientation R_s · R_offset (`offset_rpy`) — are met in the weighted least-squares sense
 /// (`position_weight`, `orientation_weight`) within the joint limits by PoseIk (damped
 /// least squares with bounds, warm-started from the previous frame), with the model's
-/// Jacobians. The root link's target is the base pose itself. Per-target errors are
+/// Jacobians. The root link's target is the base pose itself. With `ik.scaling: limbs`
+/// (default) the positions are placed limb by limb instead: a link's target is its limb's
+/// anchor on the robot (the target of the mapped link above it when the BVH joint above
+/// is that link's, else the robot's joint where the limb starts, e.g. the hip or shoulder
+/// joint, as solved) plus the capture's bone from the BVH joint above, scaled by the ratio
+/// of the robot's limb length to the capture's (at q = 0 and in the rest pose), so that a
+/// robot of other proportions gets its limbs' directions; placed and solved twice per frame
+/// (io/src/limb_scaling.hpp). Per-target errors and limb ratios are
 /// reported (RetargetResult::targets). Stance feet are put on the ground by the clean-up
 /// (reference_cleanup.hpp), which dynfilter-bvh2ref runs by default.
 ///
@@ -107,6 +114,10 @@ enum class RetargetMode { kChain, kIk };
 /// IK mode settings (mapping key `ik`).
 struct RetargetIkOptions {
   double scale = 0.0;          ///< BVH → robot length ratio; 0: auto (see file comment)
+  /// `scaling: limbs` (default): each position target placed from its limb's anchor on the
+  /// robot along the capture's bone scaled by the limb's length ratio (see file comment);
+  /// `scaling: uniform`: the capture's positions scaled by `scale` about the world origin.
+  bool limb_scaling = true;
   int max_iterations = 50;     ///< per frame
   double posture_weight = 0.01;  ///< pull of every joint towards its neutral value (1/rad)
 };
@@ -122,7 +133,7 @@ struct RetargetIkOptions {
 ///       - {link: l_thigh, bvh: LeftUpLeg, flexion: [-1, 0, 0]}
 ///       - {link: l_foot, bvh: LeftFoot, align: false, figure_bone: [1, 0, 0]}
 ///
-/// Optional keys: `mode` (chain or ik), `ik: {scale, max_iterations, posture_weight}`,
+/// Optional keys: `mode` (chain or ik), `ik: {scale, scaling, max_iterations, posture_weight}`,
 /// `allow_unmapped` (false), `flat_soles` (true), `ground_frames` (default 30), `smoothing_window` (7),
 /// `clamp_to_limits` (false), `cleanup` (ReferenceCleanupOptions, reference_cleanup.hpp);
 /// `root.offset_xyz` (IK: the point of the root link at the base position); per segment
@@ -177,6 +188,9 @@ struct TargetReport {
   double position_rms_m = 0.0, position_max_m = 0.0;
   double orientation_rms_rad = 0.0, orientation_max_rad = 0.0;
   bool has_position = false, has_orientation = false;
+  bool limb_scaled = false;   ///< its position target placed by limb scaling
+  double limb_ratio = 0.0;    ///< robot / capture limb length (also when out of range: kept uniform)
+  std::string limb_from;      ///< BVH joint at the limb's anchor
 };
 
 /// The stance calibration of one sole segment (RetargetMapping::flat_soles).
