@@ -492,10 +492,14 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
   {
     const int total = static_cast<int>(mapping.segments.size()) + 1;
     std::string missing;
-    int found = 0;
+    int found = 0, listed = 0;
     auto look = [&](const std::string& link) {
-      if (info.findBody(link) >= 0) ++found;
-      else if (missing.size() < 60) missing += (missing.empty() ? "\"" : ", \"") + link + "\"";
+      if (info.findBody(link) >= 0) {
+        ++found;
+      } else if (missing.size() < 60) {
+        missing += (missing.empty() ? "\"" : ", \"") + link + "\"";
+        ++listed;
+      }
     };
     look(mapping.root_link);
     for (const RetargetSegment& seg : mapping.segments) look(seg.link);
@@ -503,7 +507,7 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
       throw InputError(mapping.source, 0,
                        "only " + std::to_string(found) + " of its " + std::to_string(total) +
                            " links are links of model " + info.name + " (not: " + missing +
-                           (missing.size() >= 60 ? ", ..." : "") + "): a mapping written for another robot?");
+                           (found + listed < total ? ", ..." : "") + "): a mapping written for another robot?");
   }
   auto body = [&](const std::string& name, int line) {
     const int b = info.findBody(name);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -31,8 +32,12 @@ const RealtimeOptions& validated(const RealtimeOptions& options) {
     throw std::invalid_argument("RealtimeOptions: stream_blend_s and reference_delay_s must be finite and >= 0");
   if (options.reference_delay_s > RealtimeOptions::kMaxReferenceDelayS ||
       !(options.stale_timeout_s <= RealtimeOptions::kMaxReferenceDelayS))
-    throw std::invalid_argument("RealtimeOptions: reference_delay_s and stale_timeout_s must be <= " +
-                                std::to_string(RealtimeOptions::kMaxReferenceDelayS) + " s");
+  {
+    char bound[32];
+    std::snprintf(bound, sizeof bound, "%g", RealtimeOptions::kMaxReferenceDelayS);
+    throw std::invalid_argument(std::string("RealtimeOptions: reference_delay_s and stale_timeout_s must be <= ") +
+                                bound + " s");
+  }
   return options;
 }
 

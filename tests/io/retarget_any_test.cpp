@@ -379,6 +379,18 @@ TEST(RetargetAnyUrdf, AMappingForAnotherRobotIsToldApartFromAMisspeltLink) {
     EXPECT_NE(e.reason().find("only 0 of its 12 links"), std::string::npos) << e.what();
     EXPECT_NE(e.reason().find("another robot"), std::string::npos) << e.what();
   }
+  // Every link left out is listed when the list is short enough: no ", ..." after the last
+  // (two long names make a list of 60 characters or more).
+  const std::string first = "link_that_is_not_on_this_model_1", second = "link_that_is_not_on_this_model_2";
+  const std::string two = "length_scale: 1\nup_axis: +z\nbvh_forward: +x\nroot: {bvh: Hips, link: " + first +
+                          "}\nsegments:\n  - {link: " + second + ", bvh: Waist}\n";
+  try {
+    retargetBvhFile(path, parseRetargetMapping(two, "two.yaml"), *human);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.reason().find("(not: \"" + first + "\", \"" + second + "\"): a mapping"), std::string::npos)
+        << e.what();
+  }
   std::string text = kChainMapping;
   text.replace(text.find("tibia_l"), 7, "tibai_l");
   try {
