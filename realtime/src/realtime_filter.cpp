@@ -49,6 +49,17 @@ int bufferCapacity(const RealtimeOptions& o) {
   return static_cast<int>(std::ceil(span * RealtimeOptions::kMaxSenderRateHz)) + 2;
 }
 
+// The filter's options with a balance preview that holds every frame between the sampled
+// time and the newest (the reference delay) at up to RealtimeOptions::kMaxSenderRateHz: a
+// fuller preview drops its oldest samples, the ones the DCM target needs first.
+FilterOptions withPreviewOfTheDelay(FilterOptions filter_options, const RealtimeOptions& o) {
+  if (o.balance_preview) {
+    const int frames = static_cast<int>(std::ceil(o.reference_delay_s * RealtimeOptions::kMaxSenderRateHz)) + 2;
+    filter_options.balance.preview_capacity = std::max(filter_options.balance.preview_capacity, frames);
+  }
+  return filter_options;
+}
+
 }  // namespace
 
 RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filter_options,
@@ -56,7 +67,7 @@ RealtimeFilter::RealtimeFilter(IDynamicsModel& model, const FilterOptions& filte
                                const QpSolverFactory& qp_solver)
     : model_(model),
       options_(validated(options)),
-      filter_(model, filter_options, qp_solver),
+      filter_(model, withPreviewOfTheDelay(filter_options, options_), qp_solver),
       buffer_(model.nq(), model.nv(), model.info().floating_base, bufferCapacity(options)),
       references_(streamOptions(options, options.stale_timeout_s)),
       states_(streamOptions(options, options.measured_state_timeout_s)),

@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "dynfilter/core/model_sampling.hpp"
+#include "dynfilter/qp_engines/qp_engines.hpp"
 #include "dynfilter/realtime/realtime_filter.hpp"
 #include "dynfilter/urdf/urdf_loader.hpp"
 #include "support/reference_motions.hpp"
@@ -215,6 +216,30 @@ TEST_F(Realtime, TheReferenceDelayIsHonouredAtAnySendersRate) {
     EXPECT_LT(worst_pose, period_ticks == 1 ? 1e-12 : 2e-3);
     EXPECT_GT(fastest, 0.1) << "the sample moves with the stream";
   }
+}
+
+// A 1 kHz sender with a reference delay of 0.8 s keeps 800 frames ahead of the sampled
+// time in the balance layer's preview, more than its configured capacity (512): the
+// preview is sized for the delay, so the samples the DCM target needs first (those just
+// ahead of the sampled time) are not the ones dropped.
+TEST_F(Realtime, TheBalancePreviewHoldsTheFramesOfTheDelayAtAnySendersRate) {
+  FilterOptions qp;
+  qp.mode = FilterMode::kQp;
+  ASSERT_LT(qp.balance.preview_capacity, 800);
+  RealtimeOptions options = withoutSoftStart();
+  options.reference_delay_s = 0.8;
+  RealtimeFilter rt(*model_, qp, options, standingHold(*model_), qp_engines::factory("daqp"));
+  int fewest_used = std::numeric_limits<int>::max();
+  for (int tick = 0; tick < 1300; ++tick) {
+    const double now = 0.001 * tick;
+    ReferenceFrame f = frames_[static_cast<std::size_t>(tick)];
+    f.time_s += kSenderClock;
+    ASSERT_TRUE(rt.addReference(f, now));
+    rt.tick(now);
+    if (now > 0.9) fewest_used = std::min(fewest_used, rt.filter().balance()->preview_samples);
+  }
+  // preview_s = 50 ms of 1 ms frames ahead of each tick.
+  EXPECT_GE(fewest_used, 45);
 }
 
 TEST_F(Realtime, OneFutureStampedFrameDoesNotInterruptTheRealStream) {

@@ -23,7 +23,9 @@ namespace dynfilter::realtime {
 
 struct RealtimeOptions {
   /// Feed accepted frames (as placed and blended) to the balance layer's look-ahead
-  /// (DynamicsFilter::previewFrame): the reference delay is its preview window.
+  /// (DynamicsFilter::previewFrame): the reference delay is its preview window. The
+  /// filter's `balance.preview_capacity` is raised to the frames of the delay at
+  /// kMaxSenderRateHz when it holds fewer.
   bool balance_preview = true;
   /// No reference frame for this long (s) → hold the current posture (damped by the
   /// filter's feedback) and report kStatusStaleReference.
