@@ -42,7 +42,7 @@ import sys
 import time
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Optional
 
@@ -81,6 +81,8 @@ class Settings:
     tick_hz: float = 500.0
     max_seconds: Optional[float] = None
     force: bool = False
+    package_paths: list[str] = field(default_factory=list)  # dynfilter.Model's package_paths
+    lock_joints: list[str] = field(default_factory=list)    # dynfilter.Model's lock_joints
 
 
 # ----------------------------------------------------------------------------- clips
@@ -172,7 +174,8 @@ def _hash_of(clip: Clip, settings: Settings) -> str:
                 h.update(("missing:" + p).encode())
     opts = {"backend": settings.backend, "mode": clip.mode or settings.mode,
             "tick_hz": settings.tick_hz, "max_seconds": clip.max_seconds or settings.max_seconds,
-            "name": clip.name}
+            "name": clip.name, "package_paths": settings.package_paths,
+            "lock_joints": settings.lock_joints}
     h.update(json.dumps(opts, sort_keys=True).encode())
     return h.hexdigest()
 
@@ -242,9 +245,11 @@ def run_clip(clip: Clip, settings: Settings) -> dict:
                 previous["row"]["status"] = "skipped"
                 return previous["row"]
         import dynfilter
-        key = (settings.model, settings.backend)
+        key = (settings.model, settings.backend, tuple(settings.package_paths), tuple(settings.lock_joints))
         if key not in _models:
-            _models[key] = dynfilter.Model(settings.model, settings.backend)
+            _models[key] = dynfilter.Model(settings.model, settings.backend,
+                                           package_paths=settings.package_paths,
+                                           lock_joints=settings.lock_joints)
         model = _models[key]
         cfg = dynfilter.config(settings.config)
         folder.mkdir(parents=True, exist_ok=True)
@@ -416,6 +421,10 @@ def main(argv: Optional[Iterable[str]] = None) -> int:
     p.add_argument("input", help="folder of clips, or manifest (.csv or .yaml)")
     p.add_argument("-o", "--out", required=True, help="output folder")
     p.add_argument("--model", help="URDF (default: the human figure)")
+    p.add_argument("--package-path", action="append", default=[], metavar="DIR",
+                   help="folder searched for package:// meshes (repeatable; before ROS_PACKAGE_PATH)")
+    p.add_argument("--lock-joints", default="",
+                   help="weld joints: names or patterns (* ?), comma-separated, each optionally =position")
     p.add_argument("--backend", default="dart", choices=["dart", "ode"])
     p.add_argument("--config", help="YAML configuration (tools/config/default.yaml)")
     p.add_argument("--mode", choices=["paper", "qp"], help="overrides the configuration's mode")
@@ -439,7 +448,9 @@ def main(argv: Optional[Iterable[str]] = None) -> int:
         return 2
     settings = Settings(out_dir=os.path.abspath(a.out), model=model, backend=a.backend,
                         config=os.path.abspath(a.config) if a.config else None, mode=a.mode,
-                        tick_hz=a.tick_hz, max_seconds=a.max_seconds, force=a.force)
+                        tick_hz=a.tick_hz, max_seconds=a.max_seconds, force=a.force,
+                        package_paths=[os.path.abspath(d) for d in a.package_path],
+                        lock_joints=[j.strip() for j in a.lock_joints.split(",") if j.strip()])
     t0 = time.perf_counter()
     rows = run_batch(clips, settings, a.workers, a.ray_address, a.progress)
     wall = time.perf_counter() - t0

@@ -47,18 +47,28 @@ void bindModel(py::module_& m) {
                     "Coordinates: q = [p_WB (m); quat_WB (w, x, y, z); joints], v = [v_B; w_B "
                     "(base frame); joint rates] for a floating base (README, Conventions).")
       .def(py::init([](const std::string& urdf_path, const std::string& backend,
-                       bool floating_base) {
+                       bool floating_base, const std::vector<std::string>& package_paths,
+                       const std::vector<std::string>& lock_joints) {
              auto model = std::make_unique<Model>();
              model->urdf_path = urdf_path;
              model->backend = backend;
              model->floating_base = floating_base;
-             model->robot = urdf::loadUrdfFile(urdf_path);
+             urdf::UrdfLoadOptions load;
+             load.package_paths = package_paths;
+             load.lock_joints = lock_joints;
+             model->robot = urdf::loadUrdfFile(urdf_path, load);
              model->engine = model->make(Environment{});
              return model;
            }),
            py::arg("urdf_path"), py::arg("backend") = "dart", py::arg("floating_base") = true,
-           "Loads urdf_path with the backend. Raises ModelError ('<file>:<line>: <element>: "
-           "<reason>') on a bad URDF, ValueError on an unknown backend.")
+           py::arg("package_paths") = std::vector<std::string>{},
+           py::arg("lock_joints") = std::vector<std::string>{},
+           "Loads urdf_path with the backend. package_paths: folders searched for package:// "
+           "meshes before ROS_PACKAGE_PATH and the folders above the URDF (the tools' "
+           "--package-path). lock_joints: joints welded, each a name or a pattern with * and ?, "
+           "optionally '=position' (rad or m; default 0) (the tools' --lock-joints). Raises "
+           "ModelError ('<file>:<line>: <element>: <reason>') on a bad URDF, a mesh not found "
+           "or a lock that names no joint, ValueError on an unknown backend.")
       .def_readonly("urdf_path", &Model::urdf_path)
       .def_readonly("backend", &Model::backend)
       .def_readonly("floating_base", &Model::floating_base)

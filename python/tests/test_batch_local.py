@@ -87,3 +87,27 @@ def test_batch_of_a_folder_finds_mappings(tmp_path):
         assert row["status"] == "ok"
         # The QP mode: no pulling contact, friction or torque limit violated.
         assert row["frames_pulling_contact"] == "0" and row["frames_torque_over_limit"] == "0"
+
+
+def test_batch_passes_package_paths_and_locked_joints_to_the_model(tmp_path):
+    """--package-path and --lock-joints reach every worker's model: a biped copied away from
+    its meshes with its knees welded filters a reference of its 10 remaining joints, and
+    without --package-path the clip fails naming the package it did not find."""
+    models = ROOT / "tests" / "models"
+    urdf = tmp_path / "biped.urdf"
+    urdf.write_text((models / "mesh_sole_biped.urdf").read_text())
+    locked = dynfilter.Model(str(urdf), package_paths=[str(models)], lock_joints=["*_knee"])
+    assert locked.nj == 10
+    clips = tmp_path / "clips"
+    clips.mkdir()
+    t = np.linspace(0.0, 0.5, 26)
+    q = np.tile(np.array(locked.neutral_configuration()), (len(t), 1))
+    dynfilter.make_reference(locked, t, q).write_csv(str(clips / "stand.csv"), locked)
+    common = [clips, "--model", urdf, "--lock-joints", "*_knee", "--progress", "none"]
+    r = run_batch([*common, "-o", tmp_path / "out", "--package-path", models])
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert read_summary(tmp_path / "out")["stand"]["status"] == "ok"
+    r = run_batch([*common, "-o", tmp_path / "missing"])
+    assert r.returncode == 1
+    row = read_summary(tmp_path / "missing")["stand"]
+    assert row["status"] == "failed" and 'package "dynfilter_test_meshes" is in none of' in row["error"]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import dynfilter
-from conftest import CMU, MODEL, SQUAT, read_csv, run_tool, tool
+from conftest import CMU, MODEL, ROOT, SQUAT, read_csv, run_tool, tool
 
 TIMING = {"solve_time_s", "tick_time_s"}
 
@@ -232,6 +232,30 @@ def test_bad_urdf_and_backend(tmp_path):
     assert e.value.line == 4
     with pytest.raises(ValueError, match="unknown backend \"bullet\""):
         dynfilter.Model(str(MODEL), "bullet")
+
+
+def test_package_paths_and_locked_joints(tmp_path):
+    """A URDF copied away from its meshes finds them through package_paths (the tools'
+    --package-path), and lock_joints welds joints as --lock-joints does."""
+    models = ROOT / "tests" / "models"
+    urdf = tmp_path / "mesh_sole_biped.urdf"
+    urdf.write_text((models / "mesh_sole_biped.urdf").read_text())
+    with pytest.raises(dynfilter.ModelError, match="package \"dynfilter_test_meshes\" is in none of"):
+        dynfilter.Model(str(urdf))
+    m = dynfilter.Model(str(urdf), package_paths=[str(models)])
+    assert m.nj == 12
+    locked = dynfilter.Model(str(urdf), "ode", package_paths=[str(models)],
+                             lock_joints=["*_knee=0.4", "l_ankle_roll"])
+    assert locked.nj == 9
+    assert "l_knee" not in locked.joint_names and "r_ankle_roll" in locked.joint_names
+    # The knees welded at 0.4 rad: the shin hangs where the full model puts it with q_knee = 0.4.
+    q = np.array(m.neutral_configuration())
+    q[7 + m.joint_names.index("l_knee")] = 0.4
+    full = dict(zip(m.body_names, m.body_positions(q)))
+    welded = dict(zip(locked.body_names, locked.body_positions(locked.neutral_configuration())))
+    assert np.max(np.abs(np.asarray(full["l_foot"]) - np.asarray(welded["l_foot"]))) <= 1e-12
+    with pytest.raises(dynfilter.ModelError, match="no_such"):
+        dynfilter.Model(str(urdf), package_paths=[str(models)], lock_joints=["no_such_*"])
 
 
 def test_bad_arrays_name_the_row(model):
