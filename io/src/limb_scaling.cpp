@@ -19,13 +19,10 @@ Eigen::Vector3d pointOf(const IDynamicsModel& model, const LimbSegment& s) {
   return model.bodyPose(s.body) * s.p_BP;
 }
 
-struct AxisLine {
-  Eigen::Vector3d u, a;  // direction (unit) and a point, world
-};
+}  // namespace
 
-// The axis of revolute joint j at the model's configuration q (false for a prismatic one).
-bool axisOf(IDynamicsModel& model, const KinematicTree& tree, int j, const Eigen::VectorXd& q,
-            AxisLine& line) {
+bool jointAxis(IDynamicsModel& model, const KinematicTree& tree, int j, const Eigen::VectorXd& q,
+               AxisLine& line) {
   const ModelInfo& info = model.info();
   const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
   const int body = tree.joint_child_body[static_cast<std::size_t>(j)];
@@ -51,30 +48,42 @@ double distanceToLine(const AxisLine& l, const Eigen::Vector3d& p) {
   return (d - d.dot(l.u) * l.u).norm();
 }
 
-// The limb's pivot at q0 (see the file comment), world, and the body it is fixed in.
-bool pivotOf(IDynamicsModel& model, const KinematicTree& tree, const LimbSegment& s,
-             const Eigen::VectorXd& q0, Eigen::Vector3d& pivot_W, int& body) {
+bool axesMeet(const std::vector<AxisLine>& lines, Eigen::Vector3d& point_W) {
+  if (lines.empty()) return false;
+  if (lines.size() == 1) {
+    point_W = lines.front().a;
+    return true;
+  }
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (const AxisLine& m : lines) {
+    const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - m.u * m.u.transpose();
+    A += P;
+    b += P * m.a;
+  }
+  if (A.fullPivLu().rank() < 3) return false;
+  const Eigen::Vector3d p = A.ldlt().solve(b);
+  for (const AxisLine& m : lines)
+    if (distanceToLine(m, p) >= kAxesMeet_m) return false;
+  point_W = p;
+  return true;
+}
+
+bool limbPivot(IDynamicsModel& model, const KinematicTree& tree, const std::vector<int>& chain,
+               const Eigen::Vector3d& p_W, const Eigen::VectorXd& q0, Eigen::Vector3d& pivot_W,
+               int& body) {
   model.setState(q0, Eigen::VectorXd::Zero(model.info().nv));
-  const Eigen::Vector3d p_c = pointOf(model, s);
+  const Eigen::Vector3d& p_c = p_W;
   std::vector<AxisLine> lines;
   std::vector<int> joints;
-  for (auto it = s.joints.rbegin(); it != s.joints.rend(); ++it) {
+  for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
     AxisLine l;
-    if (!axisOf(model, tree, *it, q0, l)) break;
+    if (!jointAxis(model, tree, *it, q0, l)) break;
     if (distanceToLine(l, p_c) < kMovesPoint_m) continue;
     lines.push_back(l);
     if (lines.size() >= 2) {
-      Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d b = Eigen::Vector3d::Zero();
-      for (const AxisLine& m : lines) {
-        const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - m.u * m.u.transpose();
-        A += P;
-        b += P * m.a;
-      }
-      const Eigen::Vector3d p = A.completeOrthogonalDecomposition().solve(b);
-      bool meet = A.fullPivLu().rank() == 3;
-      for (const AxisLine& m : lines) meet = meet && distanceToLine(m, p) < kAxesMeet_m;
-      if (!meet) {
+      Eigen::Vector3d p;
+      if (!axesMeet(lines, p)) {
         lines.pop_back();
         break;
       }
@@ -87,7 +96,6 @@ bool pivotOf(IDynamicsModel& model, const KinematicTree& tree, const LimbSegment
   if (lines.size() == 1) pivot_W = model.bodyPose(body).translation();
   return true;
 }
-}  // namespace
 
 std::vector<LimbAnchor> findLimbAnchors(const std::vector<LimbSegment>& segments,
                                         const BvhMotion& bvh,
@@ -112,7 +120,7 @@ std::vector<LimbAnchor> findLimbAnchors(const std::vector<LimbSegment>& segments
       a.bvh_joint = s.parent == 0 ? -1 : ja;
       anchor_model = pointOf(model, P);
       anchor_rest = s.parent == 0 ? rest_base : rest[static_cast<std::size_t>(ja)];
-    } else if (pivotOf(model, tree, s, q0, anchor_model, a.joint_body)) {
+    } else if (limbPivot(model, tree, s.joints, pointOf(model, s), q0, anchor_model, a.joint_body)) {
       a.p_BA = model.bodyPose(a.joint_body).inverse() * anchor_model;
       a.bvh_joint = ja;
       anchor_rest = rest[static_cast<std::size_t>(ja)];

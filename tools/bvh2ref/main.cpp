@@ -5,17 +5,20 @@
 //
 //   dynfilter-bvh2ref clip.bvh --mapping m.yaml -o reference.csv [--model urdf]
 //       [--allow-unmapped] [--no-cleanup] [--clamp] [--report report.txt]
+//   dynfilter-bvh2ref clip.bvh --suggest-mapping m.yaml [--model urdf]
 
 #include <cmath>
 #include <cstdio>
 #include <exception>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 
 #include <CLI/CLI.hpp>
 
 #include "dynfilter/backends/make_model.hpp"
 #include "model_cli.hpp"
+#include "dynfilter/io/mapping_suggestion.hpp"
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
@@ -36,8 +39,14 @@ int main(int argc, char** argv) {
   std::string backend = "dart", report_path;
   bool clamp = false, allow_unmapped = false, no_cleanup = false;
   app.add_option("bvh", bvh_path, "BVH file")->required();
-  app.add_option("--mapping,-m", mapping_path, "mapping YAML")->required();
-  app.add_option("-o,--output", out_path, "reference motion CSV to write")->required();
+  std::string suggest_path;
+  auto* mapping_opt = app.add_option("--mapping,-m", mapping_path, "mapping YAML");
+  auto* out_opt = app.add_option("-o,--output", out_path, "reference motion CSV to write");
+  auto* suggest_opt = app.add_option(
+      "--suggest-mapping", suggest_path,
+      "write a first mapping of the BVH onto the model, found from the structure of both, to this "
+      "file and stop (review it, then retarget with --mapping)");
+  suggest_opt->excludes(mapping_opt)->excludes(out_opt);
   app.add_option("--model", model_path, "URDF of the robot")->capture_default_str();
   app.add_option("--backend", backend, "dynamics backend for kinematics")->capture_default_str();
   app.add_flag("--clamp", clamp, "clamp joint angles into the model's limits (without clean-up)");
@@ -49,8 +58,27 @@ int main(int argc, char** argv) {
   dynfilter::tools::ModelCli model_cli;
   dynfilter::tools::addModelOptions(app, model_cli);
   CLI11_PARSE(app, argc, argv);
+  if (suggest_path.empty() && (mapping_path.empty() || out_path.empty())) {
+    std::fprintf(stderr, "dynfilter-bvh2ref: --mapping and --output are required (or --suggest-mapping)\n");
+    return 2;
+  }
 
   try {
+    if (!suggest_path.empty()) {
+      auto model = dynfilter::makeModel(backend, dynfilter::tools::loadRobot(model_path, model_cli), {});
+      dynfilter::io::BvhReadOptions read;
+      read.detect_t_pose = true;
+      const dynfilter::io::BvhMotion bvh = dynfilter::io::readBvh(bvh_path, read);
+      const dynfilter::io::MappingSuggestion suggestion =
+          dynfilter::io::suggestMapping(bvh, *model, bvh.skipped_frames);
+      std::ofstream file(suggest_path);
+      file << suggestion.yaml;
+      if (!file) throw std::runtime_error("cannot write " + suggest_path);
+      std::printf("%s", suggestion.yaml.c_str());
+      for (const std::string& note : suggestion.notes) std::printf("note: %s\n", note.c_str());
+      std::printf("wrote %s\n", suggest_path.c_str());
+      return 0;
+    }
     dynfilter::io::RetargetMapping mapping = dynfilter::io::readRetargetMapping(mapping_path);
     if (clamp) mapping.clamp_to_limits = true;
     if (allow_unmapped) mapping.allow_unmapped = true;

@@ -1,0 +1,142 @@
+// A first mapping found from the structure of a BVH skeleton and a model
+// (dynfilter/io/mapping_suggestion.hpp): the mini humanoid's own capture, the human figure
+// with the three CMU conversions (three naming schemes, units and rest poses), and what
+// the suggestion retargets.
+
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "dynfilter/io/mapping_suggestion.hpp"
+#include "dynfilter/io/retarget.hpp"
+#include "dynfilter/urdf/urdf_loader.hpp"
+#include "mini_humanoid_bvh.hpp"
+#include "support/test_support.hpp"
+
+namespace dynfilter::io {
+namespace {
+
+using testing_io::knownAngles;
+using testing_io::writeMiniBvh;
+
+// Mapped link → BVH joint of a mapping (the root under its link too).
+std::map<std::string, std::string> pairsOf(const RetargetMapping& m) {
+  std::map<std::string, std::string> out{{m.root_link, m.root_bvh}};
+  for (const RetargetSegment& s : m.segments) out[s.link] = s.bvh;
+  return out;
+}
+
+// The mini humanoid's capture of itself: every limb is matched, the chest (no neck above
+// it) keeps its rest orientation, and the suggestion retargets the capture's angles.
+TEST(MappingSuggestion, TheMiniHumanoidsOwnCaptureIsMatchedByStructure) {
+  auto model = test::makeMiniHumanoid();
+  const std::vector<std::map<std::string, double>> truth = {knownAngles(0.2), knownAngles(1.0),
+                                                            knownAngles(0.6)};
+  const BvhMotion bvh = readBvh(writeMiniBvh(truth, "mini_suggest.bvh"));
+  const MappingSuggestion s = suggestMapping(bvh, *model);
+  const RetargetMapping m = parseRetargetMapping(s.yaml, "suggested.yaml");
+  EXPECT_EQ(pairsOf(m), (std::map<std::string, std::string>{{"hips", "Hips"},
+                                                            {"chest", "Waist"},
+                                                            {"tibia_l", "LKnee"},
+                                                            {"sole_l", "LAnkle"},
+                                                            {"tibia_r", "RKnee"},
+                                                            {"sole_r", "RAnkle"},
+                                                            {"ulna_l", "LElbow"},
+                                                            {"ulna_r", "RElbow"}}))
+      << s.yaml;
+  EXPECT_EQ(m.mode, RetargetMode::kIk);
+  EXPECT_EQ(m.up_axis, "+z");
+  EXPECT_EQ(m.bvh_forward, "+x");
+  EXPECT_EQ(m.length_scale, 1.0);
+  EXPECT_EQ(m.root_position, (std::vector<std::string>{"LHip", "RHip"}));
+  // The hips' pivots (where the three hip axes meet) are 6 cm below the base origin.
+  EXPECT_LT((m.root_offset_xyz - Eigen::Vector3d(0, 0, -0.06)).norm(), 1e-9);
+  EXPECT_FALSE(m.allow_unmapped);
+  ASSERT_EQ(s.notes.size(), 1u);
+  EXPECT_NE(s.notes[0].find("no neck"), std::string::npos);
+
+  RetargetMapping exact = m;  // the IK's pull towards q = 0 off, as in the IK mode's own tests
+  exact.ik.posture_weight = 1e-4;
+  exact.ik.max_iterations = 200;
+  const RetargetResult r = retargetBvh(bvh, exact, *model);
+  const ModelInfo& info = model->info();
+  for (std::size_t k = 0; k < truth.size(); ++k)
+    for (const auto& [name, value] : truth[k]) {
+      if (name.rfind("cubitus", 0) == 0) continue;  // no wrist target: the elbow's angle is free
+      EXPECT_NEAR(r.motion.frames[k].q[info.configurationIndex(info.findJoint(name))], value, 1e-3)
+          << name << " frame " << k;
+    }
+}
+
+struct CmuCase {
+  const char* file;
+  const char* units;  // expected length_scale
+  double length_scale;
+  int skip_frames;
+  std::map<std::string, std::string> pairs;
+  std::vector<std::string> hips;
+};
+
+// The three CMU conversions onto the human figure: their own names, units (CMU unit,
+// centimetres) and rest poses, matched by structure alone.
+TEST(MappingSuggestion, ThreeConversionsOfTheCmuSkeletonOntoTheHumanFigure) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+  const std::vector<CmuCase> cases = {
+      {"131_01_start_walk_stop.bvh", "CMU", 0.0254 / 0.45, 0,
+       {{"pelvis", "Hips"}, {"torso", "Chest2"}, {"l_shank", "LeftKnee"}, {"l_foot", "LeftAnkle"},
+        {"r_shank", "RightKnee"}, {"r_foot", "RightAnkle"}, {"l_elbow_link", "LeftElbow"},
+        {"l_hand", "LeftWrist"}, {"r_elbow_link", "RightElbow"}, {"r_hand", "RightWrist"}},
+       {"LeftHip", "RightHip"}},
+      {"01_01_forward_jumps.bvh", "CMU", 0.0254 / 0.45, 1,
+       {{"pelvis", "Hips"}, {"torso", "Spine1"}, {"l_shank", "LeftLeg"}, {"l_foot", "LeftFoot"},
+        {"r_shank", "RightLeg"}, {"r_foot", "RightFoot"}, {"l_elbow_link", "LeftForeArm"},
+        {"l_hand", "LeftHand"}, {"r_elbow_link", "RightForeArm"}, {"r_hand", "RightHand"}},
+       {"LeftUpLeg", "RightUpLeg"}},
+      {"10_01_soccer_kick.bvh", "cm", 0.01, 1,
+       {{"pelvis", "hip"}, {"torso", "chest"}, {"l_shank", "lShin"}, {"l_foot", "lFoot"},
+        {"r_shank", "rShin"}, {"r_foot", "rFoot"}, {"l_elbow_link", "lForeArm"},
+        {"l_hand", "lHand"}, {"r_elbow_link", "rForeArm"}, {"r_hand", "rHand"}},
+       {"lThigh", "rThigh"}},
+  };
+  for (const CmuCase& c : cases) {
+    SCOPED_TRACE(c.file);
+    BvhReadOptions read;
+    read.detect_t_pose = true;
+    const BvhMotion bvh = readBvh(test::sourcePath(std::string("data/mocap/cmu/") + c.file), read);
+    const MappingSuggestion s = suggestMapping(bvh, *model, bvh.skipped_frames);
+    const RetargetMapping m = parseRetargetMapping(s.yaml, "suggested.yaml");
+    EXPECT_EQ(pairsOf(m), c.pairs) << s.yaml;
+    EXPECT_EQ(m.root_position, c.hips);
+    EXPECT_DOUBLE_EQ(m.length_scale, c.length_scale);
+    EXPECT_EQ(m.skip_frames, c.skip_frames);
+    EXPECT_EQ(m.up_axis, "+y");
+    EXPECT_EQ(m.bvh_forward, "+z");
+    EXPECT_NE(s.yaml.find(std::string("units: ") + c.units), std::string::npos);
+    EXPECT_TRUE(m.allow_unmapped);  // the neck
+  }
+}
+
+// A skeleton without legs is refused with the joint it stopped at.
+TEST(MappingSuggestion, ASkeletonWithoutTwoLegsIsRefusedByName) {
+  auto model = test::makeMiniHumanoid();
+  const std::string path = ::testing::TempDir() + "/armless.bvh";
+  {
+    std::ofstream out(path);
+    out << "HIERARCHY\nROOT Body\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition "
+           "Zrotation Yrotation Xrotation\n  JOINT Tail\n  {\n    OFFSET 0 0 -0.5\n    CHANNELS 1 "
+           "Zrotation\n    End Site\n    {\n      OFFSET 0 0 -0.2\n    }\n  }\n}\nMOTION\nFrames: 2\n"
+           "Frame Time: 0.01\n0 0 1 0 0 0 0\n0 0 1 0 0 0 0\n";
+  }
+  try {
+    suggestMapping(readBvh(path), *model);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.reason().find("cannot suggest a mapping: joint \"Tail\""), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace dynfilter::io

@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""dynfilter-bvh2ref --suggest-mapping on two public humanoids of the example-robot-data
+wheel (installed by tools/install-deps.sh): the mapping found from the structure of the
+CMU walk's skeleton and of the robot pairs the same links with the same BVH joints as the
+mappings written by hand (data/mocap/cmu/mappings/131_01_g1.yaml, 131_01_talos.yaml), with
+the same units, axes and base position point (within 2.5 cm: the written points are
+rounded, TALOS's hip joints sit at x = -0.02 m). Then the jump, which has no
+G1 mapping of its own, is retargeted onto the G1 with its suggested mapping: every target
+is met within 30 mm RMS.
+
+Prints "suggest mapping ok"; exit 77 (skipped) when the wheel is not installed.
+"""
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+import yaml
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from example_robot_data import robots_root  # noqa: E402
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(os.path.dirname(HERE))
+CMU = os.path.join(REPO, "data", "mocap", "cmu")
+
+
+def pairs(mapping):
+    out = {mapping["root"]["link"]: mapping["root"]["bvh"]}
+    out.update({s["link"]: s["bvh"] for s in mapping["segments"]})
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--bvh2ref", required=True)
+    ap.add_argument("--venv", required=True)
+    args = ap.parse_args()
+    root = robots_root(args.venv)
+    if root is None:
+        return 77
+    robots = {"131_01_g1.yaml": os.path.join(root, "g1_description", "urdf", "g1_29dof_rev_1_0.urdf"),
+              "131_01_talos.yaml": os.path.join(root, "talos_data", "robots", "talos_reduced.urdf")}
+    failures = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for shipped, urdf in robots.items():
+            out = os.path.join(tmp, "suggested_" + shipped)
+            subprocess.run([args.bvh2ref, os.path.join(CMU, "131_01_start_walk_stop.bvh"), "--model", urdf,
+                            "--package-path", root, "--suggest-mapping", out],
+                           check=True, stdout=subprocess.DEVNULL)
+            with open(out) as f:
+                got = yaml.safe_load(f)
+            with open(os.path.join(CMU, "mappings", shipped)) as f:
+                want = yaml.safe_load(f)
+            if pairs(got) != pairs(want):
+                failures.append(f"{shipped}: suggested {pairs(got)}, written {pairs(want)}")
+            for key in ("length_scale", "up_axis", "bvh_forward", "mode"):
+                if got[key] != want[key] and not (key == "length_scale" and abs(got[key] - want[key]) < 1e-12):
+                    failures.append(f"{shipped}: {key} {got[key]} (written: {want[key]})")
+            if got["root"]["position"] != want["root"]["position"]:
+                failures.append(f"{shipped}: root.position {got['root']['position']}")
+            offset = [a - b for a, b in zip(got["root"]["offset_xyz"], want["root"]["offset_xyz"])]
+            if max(abs(x) for x in offset) > 0.025:  # the written ones are rounded (TALOS hips at x = -0.02)
+                failures.append(f"{shipped}: root.offset_xyz {got['root']['offset_xyz']} "
+                                f"(written: {want['root']['offset_xyz']})")
+            print(f"{shipped}: {len(pairs(got))} links paired as written, base point "
+                  f"{got['root']['offset_xyz']} (written {want['root']['offset_xyz']})")
+
+        g1 = robots["131_01_g1.yaml"]
+        jump_map = os.path.join(tmp, "jump_g1.yaml")
+        subprocess.run([args.bvh2ref, os.path.join(CMU, "01_01_forward_jumps.bvh"), "--model", g1,
+                        "--suggest-mapping", jump_map], check=True, stdout=subprocess.DEVNULL)
+        report = subprocess.run([args.bvh2ref, os.path.join(CMU, "01_01_forward_jumps.bvh"), "--model", g1,
+                                 "--mapping", jump_map, "-o", os.path.join(tmp, "jump_g1.csv")],
+                                check=True, stdout=subprocess.PIPE, text=True).stdout
+        rms = [float(x) for x in re.findall(r"^\s+\S+\s+([0-9.]+) /\s+[0-9.]+", report, re.M)]
+        if len(rms) < 9 or max(rms) > 30.0:
+            failures.append(f"jump on the G1: target position RMS {rms} mm (bound 30)")
+        print(f"jump on the G1 with its suggested mapping: target position RMS up to {max(rms):.1f} mm")
+    if failures:
+        print("\n".join(failures))
+        return 1
+    print("suggest mapping ok")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
