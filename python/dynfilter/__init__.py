@@ -47,6 +47,7 @@ from ._dynfilter import (  # noqa: E402
     read_bvh,
     read_mapping,
     read_reference,
+    suggest_mapping,
 )
 from . import _dynfilter  # noqa: E402
 
@@ -55,7 +56,7 @@ __all__ = [
     "Reference", "RetargetMapping", "RetargetResult", "available_backends", "config",
     "config_to_yaml", "crosscheck_filtered", "default_model_path", "filter_motion",
     "load_config", "make_reference", "parse_config", "read_bvh", "read_mapping",
-    "read_reference", "retarget", "reference", "STATUS_BITS", "CONTACT_KINDS",
+    "read_reference", "retarget", "reference", "suggest_mapping", "STATUS_BITS", "CONTACT_KINDS",
 ]
 
 PathLike = Union[str, os.PathLike]

@@ -138,6 +138,7 @@ class Mapping:
     allow_unmapped: bool
 
 def read_mapping(path: str) -> Mapping: ...
+def suggest_mapping(bvh_path: str, model: Model) -> tuple[str, list[str]]: ...
 
 class RetargetResult:
     """A retargeted clip and, when asked for, its clean-up (dynfilter-bvh2ref's default)."""

@@ -10,6 +10,7 @@
 #include "dynfilter/io/bvh.hpp"
 #include "dynfilter/io/input_error.hpp"
 #include "dynfilter/io/reference_cleanup.hpp"
+#include "dynfilter/io/mapping_suggestion.hpp"
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
 
@@ -232,6 +233,19 @@ void bindMotion(py::module_& m) {
       .def_readwrite("allow_unmapped", &io::RetargetMapping::allow_unmapped);
   m.def("read_mapping", &io::readRetargetMapping, py::arg("path"),
         "Reads a mapping file. Raises InputError naming file, line and column.");
+  m.def("suggest_mapping",
+        [](const std::string& bvh_path, Model& model) {
+          io::BvhReadOptions options;
+          options.detect_t_pose = true;
+          const io::BvhMotion bvh = io::readBvh(bvh_path, options);
+          const io::MappingSuggestion s = io::suggestMapping(bvh, *model.engine, bvh.skipped_frames);
+          return py::make_tuple(s.yaml, s.notes);
+        },
+        py::arg("bvh_path"), py::arg("model"),
+        "A first mapping of the BVH onto the model found from the structure of both, as "
+        "dynfilter-bvh2ref --suggest-mapping writes it: (yaml_text, notes). Raises InputError "
+        "when the BVH has no spine, two legs and two arms, ValueError when the model does not "
+        "stand on two legs.");
 
   py::class_<Retargeted>(m, "RetargetResult",
                          "A retargeted clip (and its clean-up, as dynfilter-bvh2ref does unless "

@@ -258,6 +258,27 @@ def test_package_paths_and_locked_joints(tmp_path):
         dynfilter.Model(str(urdf), package_paths=[str(models)], lock_joints=["no_such_*"])
 
 
+def test_suggest_mapping_is_the_tools_and_retargets(tmp_path, model):
+    """suggest_mapping gives the text dynfilter-bvh2ref --suggest-mapping writes, and the
+    mapping it suggests retargets the clip."""
+    bvh = CMU / "10_01_soccer_kick.bvh"
+    text, notes = dynfilter.suggest_mapping(str(bvh), model)
+    out = tmp_path / "kick.yaml"
+    r = run_tool([tool("bvh2ref"), bvh, "--suggest-mapping", out])
+    assert r.returncode == 0, r.stderr
+    assert out.read_text() == text
+    assert notes == []
+    assert "{link: l_shank, bvh: lShin}" in text
+    result = dynfilter.retarget(str(bvh), str(out), model)
+    assert result.reference.q.shape[1] == model.nq
+    with pytest.raises(dynfilter.InputError, match="cannot suggest a mapping"):
+        armless = tmp_path / "tail.bvh"
+        armless.write_text("HIERARCHY\nROOT Body\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition "
+                           "Zposition\n End Site\n {\n  OFFSET 0 -1 0\n }\n}\nMOTION\nFrames: 2\n"
+                           "Frame Time: 0.01\n0 1 0\n0 1 0\n")
+        dynfilter.suggest_mapping(str(armless), model)
+
+
 def test_bad_arrays_name_the_row(model):
     ref = dynfilter.read_reference(str(SQUAT), model)
     with pytest.raises(dynfilter.InputError, match=r"^<arrays>: q has shape \(481, 38\), expected \(481, 39\)"):
