@@ -360,16 +360,21 @@ ModelMatch matchModel(IDynamicsModel& model, std::vector<std::string>& notes) {
                       ": no hip whose axes meet followed by a knee, not mapped");
       continue;
     }
+    ++legs_found;
     ModelLimb& l = m.legs[sideOf(foot)];
     if (l.foot_or_wrist_body >= 0) continue;
     l.knee_or_elbow_body = tree.joint_child_body[static_cast<std::size_t>(chain[static_cast<std::size_t>(knee)])];
     l.foot_or_wrist_body = foot;
     hips_W += pivot;
-    ++legs_found;
   }
-  if (legs_found != 2 || m.legs[0].foot_or_wrist_body < 0 || m.legs[1].foot_or_wrist_body < 0)
-    throw std::invalid_argument("suggestMapping: model " + info.name + " does not stand on a left and a right leg (" +
-                                std::to_string(legs_found) + " legs found)");
+  if (legs_found != 2 || m.legs[0].foot_or_wrist_body < 0 || m.legs[1].foot_or_wrist_body < 0) {
+    std::string on;
+    for (const StandingSole& sole : soles) on += (on.empty() ? "" : ", ") + info.body_names[static_cast<std::size_t>(sole.body)];
+    throw std::invalid_argument("suggestMapping: model " + info.name + " does not stand on a left and a right leg: " +
+                                std::to_string(legs_found) + " legs end in a body it stands on at q = 0 (" +
+                                (on.empty() ? "it touches no ground: no collision geometry?" : "it stands on " + on) +
+                                ")");
+  }
   model.setState(q0, v0);
   m.p_BP_root = X_WB.inverse() * (0.5 * hips_W);
 

@@ -5,6 +5,7 @@
 
 #include <fstream>
 #include <map>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -135,6 +136,20 @@ TEST(MappingSuggestion, ASkeletonWithoutTwoLegsIsRefusedByName) {
     FAIL() << "no error";
   } catch (const InputError& e) {
     EXPECT_NE(e.reason().find("cannot suggest a mapping: joint \"Tail\""), std::string::npos) << e.what();
+  }
+}
+
+// A model that does not stand on two legs is refused, saying what it stands on.
+TEST(MappingSuggestion, AModelOnFourLegsIsRefusedWithItsFeet) {
+  auto quadruped = test::makeModel("dart", urdf::loadUrdfFile(test::testModelPath("quadruped.urdf")), ModelOptions{});
+  const BvhMotion bvh = readBvh(writeMiniBvh({knownAngles(0.0), knownAngles(0.1)}, "mini_quadruped.bvh"));
+  try {
+    suggestMapping(bvh, *quadruped);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("does not stand on a left and a right leg: 4 legs end in a body it stands on"),
+              std::string::npos)
+        << e.what();
   }
 }
 
