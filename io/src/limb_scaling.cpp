@@ -4,6 +4,8 @@
 #include <functional>
 #include <numeric>
 
+#include "joint_axes.hpp"
+
 namespace dynfilter::io::detail {
 
 namespace {
@@ -12,74 +14,25 @@ constexpr double kMaxRatioOfUniform = 2.0;
 constexpr double kMinLength_m = 1e-6;
 
 constexpr double kMovesPoint_m = 0.01;   // a joint whose axis passes closer does not move the point
-constexpr double kAxesMeet_m = 0.02;     // axes closer than this to their common point meet
-constexpr double kProbeStep = 0.1;       // joint displacement that reveals its axis (rad)
 
 Eigen::Vector3d pointOf(const IDynamicsModel& model, const LimbSegment& s) {
   return model.bodyPose(s.body) * s.p_BP;
 }
 
-}  // namespace
-
-bool jointAxis(IDynamicsModel& model, const KinematicTree& tree, int j, const Eigen::VectorXd& q,
-               AxisLine& line) {
-  const ModelInfo& info = model.info();
-  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
-  const int body = tree.joint_child_body[static_cast<std::size_t>(j)];
-  model.setState(q, v0);
-  const Eigen::Isometry3d X0 = model.bodyPose(body);
-  Eigen::VectorXd q1 = q;
-  const int qi = info.configurationIndex(j);
-  q1[qi] += (q[qi] + kProbeStep <= info.q_upper[j]) ? kProbeStep : -kProbeStep;
-  model.setState(q1, v0);
-  const Eigen::Isometry3d X1 = model.bodyPose(body);
-  model.setState(q, v0);
-  const Eigen::Matrix3d R = X1.linear() * X0.linear().transpose();
-  const Eigen::AngleAxisd aa(R);
-  if (aa.angle() < 0.5 * kProbeStep) return false;
-  line.u = aa.axis();
-  const Eigen::Vector3d t = X1.translation() - R * X0.translation();
-  line.a = (Eigen::Matrix3d::Identity() - R).completeOrthogonalDecomposition().solve(t);
-  return true;
-}
-
-double distanceToLine(const AxisLine& l, const Eigen::Vector3d& p) {
-  const Eigen::Vector3d d = p - l.a;
-  return (d - d.dot(l.u) * l.u).norm();
-}
-
-bool axesMeet(const std::vector<AxisLine>& lines, Eigen::Vector3d& point_W) {
-  if (lines.empty()) return false;
-  if (lines.size() == 1) {
-    point_W = lines.front().a;
-    return true;
-  }
-  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d b = Eigen::Vector3d::Zero();
-  for (const AxisLine& m : lines) {
-    const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - m.u * m.u.transpose();
-    A += P;
-    b += P * m.a;
-  }
-  if (A.fullPivLu().rank() < 3) return false;
-  const Eigen::Vector3d p = A.ldlt().solve(b);
-  for (const AxisLine& m : lines)
-    if (distanceToLine(m, p) >= kAxesMeet_m) return false;
-  point_W = p;
-  return true;
-}
-
+// The pivot of a limb at q0 (see the file comment; world): where the axes of the last
+// joints of the chain (root to leaf) that move the point p_W (world, at q0) meet, and the
+// body it is fixed in. False when no joint of the chain moves the point. Leaves the model
+// at q0.
 bool limbPivot(IDynamicsModel& model, const KinematicTree& tree, const std::vector<int>& chain,
                const Eigen::Vector3d& p_W, const Eigen::VectorXd& q0, Eigen::Vector3d& pivot_W,
                int& body) {
   model.setState(q0, Eigen::VectorXd::Zero(model.info().nv));
-  const Eigen::Vector3d& p_c = p_W;
   std::vector<AxisLine> lines;
   std::vector<int> joints;
   for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
     AxisLine l;
     if (!jointAxis(model, tree, *it, q0, l)) break;
-    if (distanceToLine(l, p_c) < kMovesPoint_m) continue;
+    if (distanceToLine(l, p_W) < kMovesPoint_m) continue;
     lines.push_back(l);
     if (lines.size() >= 2) {
       Eigen::Vector3d p;
@@ -96,6 +49,8 @@ bool limbPivot(IDynamicsModel& model, const KinematicTree& tree, const std::vect
   if (lines.size() == 1) pivot_W = model.bodyPose(body).translation();
   return true;
 }
+
+}  // namespace
 
 std::vector<LimbAnchor> findLimbAnchors(const std::vector<LimbSegment>& segments,
                                         const BvhMotion& bvh,

@@ -64,28 +64,6 @@ std::vector<LimbAnchor> findLimbAnchors(const std::vector<LimbSegment>& segments
                                         const KinematicTree& tree, IDynamicsModel& model,
                                         const Eigen::VectorXd& q0, std::vector<std::size_t>& order);
 
-/// A joint's axis (world): direction (unit) and a point on it.
-struct AxisLine {
-  Eigen::Vector3d u, a;
-};
-
-/// The axis of revolute joint @p j at configuration @p q, read from the motion of its child
-/// body under a small turn (false for a prismatic joint). Leaves the model at @p q.
-bool jointAxis(IDynamicsModel& model, const KinematicTree& tree, int j, const Eigen::VectorXd& q,
-               AxisLine& line);
-double distanceToLine(const AxisLine& line, const Eigen::Vector3d& p_W);
-/// Whether @p lines (one or more) meet: their least-squares point lies within 2 cm of each
-/// (two or more lines, not all parallel). @p point_W: that point (a point of a single line).
-bool axesMeet(const std::vector<AxisLine>& lines, Eigen::Vector3d& point_W);
-
-/// The pivot of a limb at @p q0 (world; see the file comment): where the axes of the last
-/// joints of @p chain (root to leaf) that move the point @p p_W (world, at q0) meet, and
-/// the body it is fixed in. False when no joint of the chain moves the point. Changes the
-/// model's state (left at q0).
-bool limbPivot(IDynamicsModel& model, const KinematicTree& tree, const std::vector<int>& chain,
-               const Eigen::Vector3d& p_W, const Eigen::VectorXd& q0, Eigen::Vector3d& pivot_W,
-               int& body);
-
 /// Sets targets[c].p_WP of every anchored segment from the model's current state (its
 /// limbs' pivots and the points of segments without a position target) and the frame's
 /// BVH joint poses @p X (BVH world), with @p base_bvh the frame's base position point (BVH

@@ -11,7 +11,7 @@
 #include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/io/input_error.hpp"
-#include "limb_scaling.hpp"
+#include "joint_axes.hpp"
 
 namespace dynfilter::io {
 
