@@ -6,8 +6,8 @@
 ///
 /// The BVH, in its rest pose (every rotation zero):
 ///  - the pelvis is the first joint from the root with two or more children; of its
-///    branches the one with the most joints is the spine, the two lowest of the others the
-///    legs;
+///    branches the one with the most joints is the spine, the two of the others reaching
+///    furthest from the spine's centroid the legs;
 ///  - up is the spine's centroid minus the legs', forward the mean direction from each
 ///    ankle to its toe along the ground, each turned to the nearest axis; left = up × forward;
 ///  - along each leg, the two consecutive bones with the largest summed length pointing
