@@ -317,16 +317,6 @@ ModelMatch matchModel(IDynamicsModel& model, std::vector<std::string>& notes) {
     const int p = tree.joint_parent_joint[static_cast<std::size_t>(j)];
     return groups[static_cast<std::size_t>(j)] == g && (p < 0 || groups[static_cast<std::size_t>(p)] != g);
   };
-  auto limbJoints = [&](int root) {
-    std::vector<int> out;
-    for (int j = 0; j < info.nj; ++j)
-      for (int k = j; k >= 0; k = tree.joint_parent_joint[static_cast<std::size_t>(k)])
-        if (k == root) {
-          out.push_back(j);
-          break;
-        }
-    return out;
-  };
   auto sideOf = [&](int body) {
     return (X_WB.inverse() * model.bodyPose(body).translation()).y() >= 0 ? 0 : 1;
   };
@@ -336,7 +326,6 @@ ModelMatch matchModel(IDynamicsModel& model, std::vector<std::string>& notes) {
   Eigen::Vector3d hips_W = Eigen::Vector3d::Zero();
   for (int root = 0; root < info.nj; ++root) {
     if (!isLimbRoot(root, JointGroup::kLeg)) continue;
-    const std::vector<int> joints = limbJoints(root);
     // Of the soles this leg moves, the one nearest its root (a foot before its toes).
     int foot = -1;
     std::size_t foot_depth = std::numeric_limits<std::size_t>::max();
@@ -352,7 +341,6 @@ ModelMatch matchModel(IDynamicsModel& model, std::vector<std::string>& notes) {
     std::vector<int> chain;
     for (const int j : tree.jointsBetween(m.base, foot))
       if (groups[static_cast<std::size_t>(j)] == JointGroup::kLeg) chain.push_back(j);
-    (void)joints;
     Eigen::Vector3d pivot;
     const int knee = pivotAndBend(model, tree, chain, q0, pivot);
     if (knee < 0) {

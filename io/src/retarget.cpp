@@ -819,7 +819,8 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
     f.time_s = k * bvh.frame_time_s;
     for (std::size_t c = 0; c < segs.size(); ++c)
       R[c] = R_conv * X[static_cast<std::size_t>(segs[c].bvh_joint)].linear() * segs[c].C;
-    f.q.head<3>() = R_conv * basePoint(X);
+    const Eigen::Vector3d base_bvh = basePoint(X);
+    f.q.head<3>() = R_conv * base_bvh;
     Eigen::Quaterniond quat(R[0]);
     quat.normalize();
     if (k > 0 && quat.dot(previous_quat) < 0) quat.coeffs() *= -1.0;
@@ -851,13 +852,13 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
         // The anchors (hip and shoulder pivots) move with the solution: place the targets,
         // solve, and place them again from the solution until they stay.
         model.setState(q_ik, v0);
-        detail::placeLimbTargets(limb_segments, limb_anchors, limb_order, X, basePoint(X), R_conv,
+        detail::placeLimbTargets(limb_segments, limb_anchors, limb_order, X, base_bvh, R_conv,
                                  model, targets);
         for (int round = 0; round < kLimbRounds; ++round) {
           solvePoseIk(model, targets, q0, posture_weights, ik_options, q_ik);
           for (std::size_t c = 0; c < segs.size(); ++c) placed[c] = targets[c].p_WP;
           model.setState(q_ik, v0);
-          detail::placeLimbTargets(limb_segments, limb_anchors, limb_order, X, basePoint(X), R_conv,
+          detail::placeLimbTargets(limb_segments, limb_anchors, limb_order, X, base_bvh, R_conv,
                                    model, targets);
           double moved = 0.0;
           for (std::size_t c = 0; c < segs.size(); ++c)

@@ -41,22 +41,26 @@ const RealtimeOptions& validated(const RealtimeOptions& options) {
   return options;
 }
 
+// The frames a sender at up to RealtimeOptions::kMaxSenderRateHz sends over @p span_s,
+// and one at either end.
+int framesAtMaxRate(double span_s) {
+  return static_cast<int>(std::ceil(std::max(0.0, span_s) * RealtimeOptions::kMaxSenderRateHz)) + 2;
+}
+
 // The frames the buffer keeps: those of the reference delay and of the longest silence a
-// stream survives (the play time then lags the newest frame by both), sent at up to
-// RealtimeOptions::kMaxSenderRateHz. (A negative stale timeout is refused by MessageStream.)
+// stream survives (the play time then lags the newest frame by both). (A negative stale
+// timeout is refused by MessageStream.)
 int bufferCapacity(const RealtimeOptions& o) {
-  const double span = std::max(0.0, o.reference_delay_s + o.stale_timeout_s);
-  return static_cast<int>(std::ceil(span * RealtimeOptions::kMaxSenderRateHz)) + 2;
+  return framesAtMaxRate(o.reference_delay_s + o.stale_timeout_s);
 }
 
 // The filter's options with a balance preview that holds every frame between the sampled
-// time and the newest (the reference delay) at up to RealtimeOptions::kMaxSenderRateHz: a
-// fuller preview drops its oldest samples, the ones the DCM target needs first.
+// time and the newest (the reference delay): a fuller preview drops its oldest samples,
+// the ones the DCM target needs first.
 FilterOptions withPreviewOfTheDelay(FilterOptions filter_options, const RealtimeOptions& o) {
-  if (o.balance_preview) {
-    const int frames = static_cast<int>(std::ceil(o.reference_delay_s * RealtimeOptions::kMaxSenderRateHz)) + 2;
-    filter_options.balance.preview_capacity = std::max(filter_options.balance.preview_capacity, frames);
-  }
+  if (o.balance_preview)
+    filter_options.balance.preview_capacity =
+        std::max(filter_options.balance.preview_capacity, framesAtMaxRate(o.reference_delay_s));
   return filter_options;
 }
 
