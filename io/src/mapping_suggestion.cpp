@@ -20,6 +20,9 @@ namespace {
 constexpr double kLegLength_m = 0.85;    // thigh and shank of an adult
 constexpr double kWristGap_m = 0.05;     // a wrist lies further than this past the elbow ...
 constexpr double kWristCluster_m = 0.05; // ... and its joints within this of one another
+constexpr double kLegAboveTrunk = 0.1;   // legs hang from at most this × their length above the trunk's origin
+constexpr double kKneeRoomRatio = 2.0;   // a knee bends into the side of its range with this × the room of the other
+constexpr double kKneeProbe_rad = 0.3;   // how far the knee is bent to see where the foot goes
 
 // ---- the BVH ----------------------------------------------------------------------------
 
@@ -120,6 +123,7 @@ struct BvhMatch {
   int root = -1, chest = -1, neck = -1;
   BvhLimb legs[2], arms[2];  // [0]: left, [1]: right
   std::string up, forward;
+  Eigen::Vector3d up_axis, forward_axis;  // the same as unit vectors of the BVH's frame
   double length_scale = 1.0;
   std::string units;
 };
@@ -179,6 +183,8 @@ BvhMatch matchBvh(const BvhSkeleton& s, std::vector<std::string>& notes) {
   if (toes.norm() < 1e-9) bvhFails(bvh, "the feet do not point anywhere along the ground in the rest pose");
   Eigen::Vector3d forward;
   m.forward = axisName(toes, forward);
+  m.up_axis = up;
+  m.forward_axis = forward;
   const Eigen::Vector3d left = up.cross(forward);
   const double leg_length = (s.at(chains[0][static_cast<std::size_t>(pair[0] + 2)]) - s.at(chains[0][static_cast<std::size_t>(pair[0])])).norm();
   for (int k = 0; k < 2; ++k) {
@@ -269,6 +275,8 @@ struct ModelMatch {
   ModelLimb legs[2], arms[2];
   Eigen::Vector3d p_BP_root = Eigen::Vector3d::Zero();  // the base position point, base frame
   std::vector<std::string> unmapped;
+  Eigen::Vector3d forward_B = Eigen::Vector3d::UnitX();  // where the model faces, base frame (±x or ±y)
+  Eigen::Vector3d up_T = Eigen::Vector3d::UnitZ();       // world up in the trunk link's frame at q = 0
 };
 
 // A limb's pivot and its knee or elbow (see the file comment): scanning @p chain from its
@@ -317,13 +325,12 @@ ModelMatch matchModel(IDynamicsModel& model, std::vector<std::string>& notes) {
     const int p = tree.joint_parent_joint[static_cast<std::size_t>(j)];
     return groups[static_cast<std::size_t>(j)] == g && (p < 0 || groups[static_cast<std::size_t>(p)] != g);
   };
-  auto sideOf = [&](int body) {
-    return (X_WB.inverse() * model.bodyPose(body).translation()).y() >= 0 ? 0 : 1;
-  };
-
   // Legs: each ends in the sole it stands on.
-  int legs_found = 0;
-  Eigen::Vector3d hips_W = Eigen::Vector3d::Zero();
+  struct FoundLeg {
+    int foot = -1, knee_joint = -1;
+    Eigen::Vector3d pivot_W;
+  };
+  std::vector<FoundLeg> found;
   for (int root = 0; root < info.nj; ++root) {
     if (!isLimbRoot(root, JointGroup::kLeg)) continue;
     // Of the soles this leg moves, the one nearest its root (a foot before its toes).
@@ -341,30 +348,77 @@ ModelMatch matchModel(IDynamicsModel& model, std::vector<std::string>& notes) {
     std::vector<int> chain;
     for (const int j : tree.jointsBetween(m.base, foot))
       if (groups[static_cast<std::size_t>(j)] == JointGroup::kLeg) chain.push_back(j);
-    Eigen::Vector3d pivot;
-    const int knee = pivotAndBend(model, tree, chain, q0, pivot);
+    FoundLeg leg;
+    const int knee = pivotAndBend(model, tree, chain, q0, leg.pivot_W);
     if (knee < 0) {
       notes.push_back("leg to " + info.body_names[static_cast<std::size_t>(foot)] +
                       ": no hip whose axes meet followed by a knee, not mapped");
       continue;
     }
-    ++legs_found;
-    ModelLimb& l = m.legs[sideOf(foot)];
-    if (l.foot_or_wrist_body >= 0) continue;
-    l.knee_or_elbow_body = tree.joint_child_body[static_cast<std::size_t>(chain[static_cast<std::size_t>(knee)])];
-    l.foot_or_wrist_body = foot;
-    hips_W += pivot;
+    leg.foot = foot;
+    leg.knee_joint = chain[static_cast<std::size_t>(knee)];
+    found.push_back(leg);
   }
-  if (legs_found != 2 || m.legs[0].foot_or_wrist_body < 0 || m.legs[1].foot_or_wrist_body < 0) {
+  auto refuse = [&](const std::string& why) {
     std::string on;
     for (const StandingSole& sole : soles) on += (on.empty() ? "" : ", ") + info.body_names[static_cast<std::size_t>(sole.body)];
     throw std::invalid_argument("suggestMapping: model " + info.name + " does not stand on a left and a right leg: " +
-                                std::to_string(legs_found) + " legs end in a body it stands on at q = 0 (" +
-                                (on.empty() ? "it touches no ground: no collision geometry?" : "it stands on " + on) +
-                                ")");
-  }
+                                why + " (" + (on.empty() ? "it touches no ground: no collision geometry?" : "it stands on " + on) +
+                                ")" + (notes.empty() ? "" : "; " + notes.back()));
+  };
+  if (found.size() != 2) refuse(std::to_string(found.size()) + " legs end in a body it stands on at q = 0");
   model.setState(q0, v0);
-  m.p_BP_root = X_WB.inverse() * (0.5 * hips_W);
+  const Eigen::Vector3d hips_W = 0.5 * (found[0].pivot_W + found[1].pivot_W);
+  // Limbs that hang from above the trunk's origin are arms (an upper body standing on its hands).
+  const double leg_length = hips_W.z() - model.bodyPose(found[0].foot).translation().z();
+  const Eigen::Vector3d p_WT = model.bodyPose(m.trunk).translation();
+  m.up_T = model.bodyPose(m.trunk).linear().transpose() * Eigen::Vector3d::UnitZ();
+  if (hips_W.z() > p_WT.z() + kLegAboveTrunk * leg_length) {
+    char above[96];
+    std::snprintf(above, sizeof above, "%.3f m above the origin of its trunk link ", hips_W.z() - p_WT.z());
+    refuse("the limbs it stands on hang from " + std::string(above) + info.body_names[static_cast<std::size_t>(m.trunk)] +
+           ": arms, not legs");
+  }
+
+  // Which way the model faces: a knee bends the foot backwards (into the side of its range
+  // with more room), whatever the base frame's axes say.
+  Eigen::Vector3d back_W = Eigen::Vector3d::Zero();
+  for (const FoundLeg& leg : found) {
+    const int j = leg.knee_joint;
+    const int iq = info.configurationIndex(j);
+    const double room_up = info.q_upper[j] - q0[iq], room_down = q0[iq] - info.q_lower[j];
+    if (!std::isfinite(room_up) || !std::isfinite(room_down) ||
+        std::max(room_up, room_down) < kKneeRoomRatio * std::min(room_up, room_down))
+      continue;
+    Eigen::VectorXd q = q0;
+    q[iq] += room_up > room_down ? std::min(kKneeProbe_rad, 0.5 * room_up) : -std::min(kKneeProbe_rad, 0.5 * room_down);
+    model.setState(q, v0);
+    const Eigen::Vector3d p_bent = model.bodyPose(leg.foot).translation();
+    model.setState(q0, v0);
+    const Eigen::Vector3d d = p_bent - model.bodyPose(leg.foot).translation();
+    back_W += Eigen::Vector3d(d.x(), d.y(), 0.0);
+  }
+  const Eigen::Matrix3d R_WB = X_WB.rotation();
+  Eigen::Vector3d forward_B = Eigen::Vector3d::UnitX();
+  if (back_W.norm() > 1e-6) {
+    const Eigen::Vector3d f = -(R_WB.transpose() * back_W);
+    const Eigen::Vector3d horizontal(f.x(), f.y(), 0.0);
+    axisName(horizontal, forward_B);
+  } else {
+    notes.push_back("the knees do not say which way the model faces (no range to bend into): its base's +x taken as forward");
+  }
+  m.forward_B = forward_B;
+  const Eigen::Vector3d left_B = Eigen::Vector3d::UnitZ().cross(forward_B);
+  auto sideOf = [&](int body) {
+    return (X_WB.inverse() * model.bodyPose(body).translation()).dot(left_B) >= 0 ? 0 : 1;
+  };
+  for (const FoundLeg& leg : found) {
+    ModelLimb& l = m.legs[sideOf(leg.foot)];
+    if (l.foot_or_wrist_body >= 0) refuse("both legs lie on one side of its base");
+    l.knee_or_elbow_body = tree.joint_child_body[static_cast<std::size_t>(leg.knee_joint)];
+    l.foot_or_wrist_body = leg.foot;
+  }
+  m.p_BP_root = X_WB.inverse() * hips_W;
 
   // Arms: each to the deepest body of its chain, along the heaviest branch.
   for (int root = 0; root < info.nj; ++root) {
@@ -464,7 +518,20 @@ MappingSuggestion suggestMapping(const BvhMotion& bvh, IDynamicsModel& model, in
   std::snprintf(scale, sizeof scale, "%.17g", b.length_scale);
   y << "length_scale: " << scale << "\n";
   y << "skip_frames: " << bvh_skipped_frames << (bvh_skipped_frames > 0 ? "   # a rest pose (T-pose) before the motion\n" : "\n");
-  y << "up_axis: " << b.up << "\nbvh_forward: " << b.forward << "\nmode: ik\n";
+  // bvh_forward is the BVH axis that becomes the model's +x: the capture's forward turned
+  // as the model's forward is turned from +x.
+  const Eigen::Vector3d bvh_left = b.up_axis.cross(b.forward_axis);
+  const Eigen::Vector3d& f = m.forward_B;
+  const Eigen::Vector3d to_model_x = f.x() > 0.5 ? b.forward_axis : f.x() < -0.5 ? Eigen::Vector3d(-b.forward_axis)
+                                     : f.y() > 0.5 ? Eigen::Vector3d(-bvh_left) : bvh_left;
+  Eigen::Vector3d unused;
+  const std::string bvh_forward = axisName(to_model_x, unused);
+  if (f.x() < 0.5) {
+    Eigen::Vector3d unused_f;
+    out.notes.push_back("the model faces " + axisName(f, unused_f) + " of its base frame (its knees bend the other way): bvh_forward is " +
+                        bvh_forward + ", the capture's forward " + b.forward + " turned with it");
+  }
+  y << "up_axis: " << b.up << "\nbvh_forward: " << bvh_forward << "\nmode: ik\n";
   if (!m.unmapped.empty()) {
     y << "allow_unmapped: true   # held at their neutral values:";
     for (const std::string& j : m.unmapped) y << " " << j;
@@ -478,7 +545,8 @@ MappingSuggestion suggestMapping(const BvhMotion& bvh, IDynamicsModel& model, in
   if (m.trunk != m.base) {
     y << "  - {link: " << link(m.trunk) << ", bvh: " << joint(b.chest);
     if (b.neck >= 0) {
-      y << ", bone_end: " << joint(b.neck) << ", figure_bone: [0, 0, 1]";
+      y << ", bone_end: " << joint(b.neck) << ", figure_bone: [" << number(m.up_T.x()) << ", " << number(m.up_T.y())
+        << ", " << number(m.up_T.z()) << "]";
     } else {
       y << ", align: false";
       out.notes.push_back("the chest " + skeleton.name(b.chest) +

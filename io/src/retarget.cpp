@@ -539,6 +539,9 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
     root.C = R_conv.transpose();
     segs.push_back(root);
   }
+  // The IK mode's targets are world orientations: a link's rest orientation is its own at
+  // q = 0 (identity for a URDF whose link frames are aligned at q = 0).
+  model.setState(info.neutralConfiguration(), Eigen::VectorXd::Zero(info.nv));
   for (const RetargetSegment& s : mapping.segments) {
     if (s.link == mapping.root_link)
       throw InputError(mapping.source, s.line, "link \"" + s.link + "\" is the root link");
@@ -548,6 +551,7 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
     c.line = s.line;
     c.bvh_joint = bvhJoint(s.bvh, s.line);
     c.body = body(s.link, s.line);
+    const Eigen::Matrix3d R_WL0 = ik_mode ? Eigen::Matrix3d(model.bodyPose(c.body).linear()) : Eigen::Matrix3d::Identity();
     Eigen::Matrix3d A = Eigen::Matrix3d::Identity();
     if (s.align) {
       int end = -1;
@@ -570,9 +574,9 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
           rest[static_cast<std::size_t>(end)] - rest[static_cast<std::size_t>(c.bvh_joint)];
       if (bone.norm() < 1e-9)
         throw InputError(mapping.source, s.line, "segment " + s.link + ": zero-length bone");
-      A = Eigen::Quaterniond::FromTwoVectors(s.figure_bone, R_conv * bone).toRotationMatrix();
+      A = Eigen::Quaterniond::FromTwoVectors(R_WL0 * s.figure_bone, R_conv * bone).toRotationMatrix();
     }
-    c.C = R_conv.transpose() * A;
+    c.C = R_conv.transpose() * A * R_WL0;
     segs.push_back(c);
   }
 

@@ -4,6 +4,10 @@
 // the suggestion retargets.
 
 #include <fstream>
+#include <functional>
+#include <iterator>
+#include <memory>
+#include <regex>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -70,6 +74,100 @@ TEST(MappingSuggestion, TheMiniHumanoidsOwnCaptureIsMatchedByStructure) {
       EXPECT_NEAR(r.motion.frames[k].q[info.configurationIndex(info.findJoint(name))], value, 1e-3)
           << name << " frame " << k;
     }
+}
+
+// The mini humanoid's URDF rewritten by @p edit, written to a temporary file and loaded.
+std::unique_ptr<IDynamicsModel> editedMiniHumanoid(const std::function<std::string(std::string)>& edit,
+                                                   const char* name) {
+  std::ifstream in(test::testModelPath("mini_humanoid.urdf"));
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string path = ::testing::TempDir() + "/" + name;
+  std::ofstream(path) << edit(text);
+  return test::makeModel("dart", urdf::loadUrdfFile(path), ModelOptions{});
+}
+
+// A robot whose base frame's +x points backwards (as iCub's does): everything hanging from
+// the base turned half a turn about z, so that its knees bend towards +x. Its left leg
+// (at −y) is still matched to the capture's left, the capture's forward becomes the
+// model's −x, and the capture's angles come back although every link frame is turned at q = 0.
+TEST(MappingSuggestion, ARobotFacingItsBasesMinusXKeepsItsLeftAndItsAngles) {
+  auto model = editedMiniHumanoid(
+      [](std::string text) {
+        const std::regex from_hips(R"re((<parent link="hips"/><child link="\w+"/>)<origin xyz="(\S+) (\S+) (\S+)"/>)re");
+        std::string out;
+        auto it = std::sregex_iterator(text.begin(), text.end(), from_hips);
+        std::size_t last = 0;
+        for (; it != std::sregex_iterator(); ++it) {
+          const std::smatch& mt = *it;
+          out += text.substr(last, static_cast<std::size_t>(mt.position(0)) - last);
+          const double x = std::stod(mt[2].str()), y = std::stod(mt[3].str());
+          out += mt[1].str() + "<origin xyz=\"" + std::to_string(-x) + " " + std::to_string(-y) + " " + mt[4].str() +
+                 "\" rpy=\"0 0 3.141592653589793\"/>";
+          last = static_cast<std::size_t>(mt.position(0) + mt.length(0));
+        }
+        return out + text.substr(last);
+      },
+      "mini_humanoid_facing_minus_x.urdf");
+  model->setState(model->info().neutralConfiguration(), Eigen::VectorXd::Zero(model->info().nv));
+  ASSERT_LT(model->bodyPose(model->info().findBody("sole_l")).translation().y(), -0.05);  // its left is −y
+
+  const std::vector<std::map<std::string, double>> truth = {knownAngles(0.2), knownAngles(1.0),
+                                                            knownAngles(0.6)};
+  const BvhMotion bvh = readBvh(writeMiniBvh(truth, "mini_suggest_turned.bvh"));
+  const MappingSuggestion s = suggestMapping(bvh, *model);
+  const RetargetMapping m = parseRetargetMapping(s.yaml, "suggested.yaml");
+  EXPECT_EQ(pairsOf(m), (std::map<std::string, std::string>{{"hips", "Hips"},
+                                                            {"chest", "Waist"},
+                                                            {"tibia_l", "LKnee"},
+                                                            {"sole_l", "LAnkle"},
+                                                            {"tibia_r", "RKnee"},
+                                                            {"sole_r", "RAnkle"},
+                                                            {"ulna_l", "LElbow"},
+                                                            {"ulna_r", "RElbow"}}))
+      << s.yaml;
+  EXPECT_EQ(m.bvh_forward, "-x");
+  bool said = false;
+  for (const std::string& n : s.notes) said = said || n.find("the model faces -x") != std::string::npos;
+  EXPECT_TRUE(said) << s.yaml;
+
+  RetargetMapping exact = m;
+  exact.ik.posture_weight = 1e-4;
+  exact.ik.max_iterations = 200;
+  const RetargetResult r = retargetBvh(bvh, exact, *model);
+  const ModelInfo& info = model->info();
+  for (std::size_t k = 0; k < truth.size(); ++k)
+    for (const auto& [name, value] : truth[k]) {
+      if (name.rfind("cubitus", 0) == 0) continue;  // no wrist target: the elbow's angle is free
+      EXPECT_NEAR(r.motion.frames[k].q[info.configurationIndex(info.findJoint(name))], value, 1e-3)
+          << name << " frame " << k;
+    }
+}
+
+// An upper body whose arms reach the floor (as a wheeled or mounted torso's do) stands on its
+// hands at q = 0; its arms are not taken for legs.
+TEST(MappingSuggestion, AnUpperBodyStandingOnItsHandsIsRefused) {
+  auto model = editedMiniHumanoid(
+      [](std::string text) {
+        // No legs; long upper arms and a hand box at the end of each forearm.
+        const std::regex leg(R"re(\s*<(link|joint) name="(hipz|hipx|femur|tibia|talus|sole|coxa|genu|talo)_[lr][^"]*"[\s\S]*?</\1>)re");
+        text = std::regex_replace(text, leg, "");
+        text = std::regex_replace(text, std::regex(R"re((name="cubitus_[lr]"[^>]*>.*?)<origin xyz="0 0 -0.25"/>)re"),
+                                  "$1<origin xyz=\"0 0 -0.45\"/>");  // upper arms long enough to reach below the hips
+        const std::regex ulna(R"re((<link name="ulna_[lr]">\s*<inertial>[\s\S]*?</inertial>))re");
+        return std::regex_replace(
+            text, ulna, "$1<collision><origin xyz=\"0 0 -0.26\"/><geometry><box size=\"0.06 0.06 0.02\"/></geometry></collision>");
+      },
+      "mini_upper_body.urdf");
+  ASSERT_EQ(model->info().nj, 7) << "the legs were not removed";  // the spine twist and two arms of three
+  const BvhMotion bvh = readBvh(writeMiniBvh({knownAngles(0.0), knownAngles(0.1)}, "mini_upper_body.bvh"));
+  try {
+    suggestMapping(bvh, *model);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("hang from 0.300 m above the origin of its trunk link chest: arms, not legs"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 struct CmuCase {

@@ -6,7 +6,9 @@ mappings written by hand (data/mocap/cmu/mappings/131_01_g1.yaml, 131_01_talos.y
 the same units, axes and base position point (within 2.5 cm: the written points are
 rounded, TALOS's hip joints sit at x = -0.02 m). Then the jump, which has no
 G1 mapping of its own, is retargeted onto the G1 with its suggested mapping: every target
-is met within 30 mm RMS.
+is met within 30 mm RMS. iCub, whose base frame faces -x and whose link frames are turned
+at q = 0, keeps its left leg left and is retargeted within 5 deg (chest) and 80 mm (feet) RMS;
+Alex, an upper body standing on its hands, is refused.
 
 Prints "suggest mapping ok"; exit 77 (skipped) when the wheel is not installed.
 """
@@ -80,6 +82,44 @@ def main():
         if len(rms) < 9 or max(rms) > 30.0:
             failures.append(f"jump on the G1: target position RMS {rms} mm (bound 30)")
         print(f"jump on the G1 with its suggested mapping: target position RMS up to {max(rms):.1f} mm")
+
+        # iCub's base frame faces -x and its link frames are turned at q = 0: its left leg is
+        # still the capture's left, and the IK meets the targets (chest 58.7 deg and feet
+        # 375 mm RMS off when the frames' turn was not taken in).
+        icub = os.path.join(root, "icub_description", "robots", "icub_reduced.urdf")
+        icub_map = os.path.join(tmp, "walk_icub.yaml")
+        subprocess.run([args.bvh2ref, os.path.join(CMU, "131_01_start_walk_stop.bvh"), "--model", icub,
+                        "--package-path", root, "--suggest-mapping", icub_map],
+                       check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        with open(icub_map) as f:
+            got = yaml.safe_load(f)
+        want_pairs = {"l_lower_leg": "LeftKnee", "l_foot": "LeftAnkle", "r_lower_leg": "RightKnee",
+                      "r_foot": "RightAnkle", "l_hand": "LeftWrist", "r_hand": "RightWrist"}
+        wrong = {k: pairs(got).get(k) for k, v in want_pairs.items() if pairs(got).get(k) != v}
+        if wrong or got["bvh_forward"] != "-z":
+            failures.append(f"iCub: pairs off {wrong}, bvh_forward {got['bvh_forward']} (want -z)")
+        report = subprocess.run([args.bvh2ref, os.path.join(CMU, "131_01_start_walk_stop.bvh"), "--model", icub,
+                                 "--package-path", root, "--mapping", icub_map, "--no-cleanup",
+                                 "-o", os.path.join(tmp, "walk_icub.csv")],
+                                check=True, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True).stdout
+        targets = report.split("IK targets", 1)[1].split("joint limits", 1)[0]
+        chest = re.search(r"^\s+chest\s+-\s+([0-9.]+) /", targets, re.M)
+        feet = [float(x) for x in re.findall(r"^\s+[lr]_foot\s+([0-9.]+) /", targets, re.M)]
+        if chest is None or float(chest.group(1)) > 5.0 or len(feet) != 2 or max(feet) > 80.0:
+            failures.append(f"iCub: chest orientation RMS {chest and chest.group(1)} deg (bound 5), "
+                            f"feet {feet} mm (bound 80)")
+        print(f"iCub: left leg left, bvh_forward {got['bvh_forward']}, chest "
+              f"{chest and chest.group(1)} deg, feet {feet} mm RMS")
+
+        # Alex, an upper body whose hands reach below its pelvis: refused, not mapped arms-as-legs.
+        alex = os.path.join(root, "alex_description", "urdf", "alex_nub_hands.urdf")
+        if os.path.exists(alex):
+            r = subprocess.run([args.bvh2ref, os.path.join(CMU, "131_01_start_walk_stop.bvh"), "--model", alex,
+                                "--package-path", root, "--suggest-mapping", os.path.join(tmp, "alex.yaml")],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            if r.returncode == 0 or "arms, not legs" not in r.stderr:
+                failures.append(f"Alex: exit {r.returncode}, {r.stderr.strip()[-200:]}")
+            print(f"Alex: refused ({r.stderr.strip().splitlines()[-1][-80:] if r.stderr.strip() else ''})")
     if failures:
         print("\n".join(failures))
         return 1

@@ -21,17 +21,23 @@
 ///  - units: of metres, centimetres, millimetres, inches and the CMU database's unit, the
 ///    one that makes thigh and shank closest to 0.85 m.
 ///
-/// The model, at its neutral configuration (REP 103: x forward, y left):
+/// The model, at its neutral configuration:
 ///  - the legs and arms of jointGroupsOf; a leg ends in the body it stands on there (the
 ///    foot), an arm in the deepest body of its chain (following the heaviest branch);
+///    limbs it stands on that hang from more than a tenth of their length above the
+///    trunk's origin are arms (an upper body standing on its hands), and it is refused;
+///  - forward is where the knees do not bend the feet: each knee is bent 0.3 rad into the
+///    side of its range with at least twice the room, and the feet move backwards. A
+///    model whose base frame faces −x (iCub) keeps its left leg left; `bvh_forward` turns
+///    the capture's forward onto that direction. Knees with no such side: the base's +x;
 ///  - from the limb's root, the first run of two or more joints whose axes meet (within
 ///    2 cm) is the hip (shoulder), where they meet its pivot; the first joint after it whose
 ///    axis does not pass through the pivot is the knee (elbow);
 ///  - the wrist is the last joint of the first run of joints more than 5 cm past the
 ///    elbow each within 5 cm of the one before (a hand's fingers further on are not part
 ///    of it);
-///  - the trunk is chooseTrunkBody's; the base position point is the midpoint of the hips'
-///    pivots (where their axes meet).
+///  - the trunk is chooseTrunkBody's, its bone the world's up in its frame; the base
+///    position point is the midpoint of the hips' pivots (where their axes meet).
 /// Joints between no two mapped links (head, fingers, grippers) are held at their neutral
 /// value (`allow_unmapped: true`, listed in a comment).
 

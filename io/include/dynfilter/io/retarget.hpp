@@ -16,6 +16,10 @@
 ///    posture already has the model's bone directions maps its rest posture to q = 0, and a
 ///    T-pose rest maps to arms raised sideways. With `align: false` A_s = I (the BVH rest
 ///    orientation of the joint counts as the model's q = 0 orientation).
+///    In the IK mode (whose targets are world orientations) C_s also carries the link's
+///    own orientation at q = 0: a URDF whose link frames are turned at q = 0 (iCub's)
+///    retargets as one whose frames are aligned. The chain mode decomposes R_P⁻¹ R_C into
+///    axes of P's frame and needs frames aligned at q = 0.
 ///  - Hinge twist: the minimal rotation leaves a thigh's or upper arm's twist about its
 ///    bone arbitrary, so the BVH's knee / elbow may bend out of the model's hinge plane. A
 ///    segment with `flexion: [x, y, z]` (link frame: the direction into which its one mapped
