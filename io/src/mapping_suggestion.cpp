@@ -417,6 +417,11 @@ ModelMatch matchModel(IDynamicsModel& model, std::vector<std::string>& notes) {
     if (l.foot_or_wrist_body >= 0) refuse("both legs lie on one side of its base");
     l.knee_or_elbow_body = tree.joint_child_body[static_cast<std::size_t>(leg.knee_joint)];
     l.foot_or_wrist_body = leg.foot;
+    if (tree.jointsBetween(l.knee_or_elbow_body, leg.foot).empty()) {
+      notes.push_back("leg to " + info.body_names[static_cast<std::size_t>(leg.foot)] +
+                      ": no ankle (the foot is rigid with its shank): the foot alone is mapped");
+      l.knee_or_elbow_body = -1;
+    }
   }
   m.p_BP_root = X_WB.inverse() * hips_W;
 
@@ -560,7 +565,8 @@ MappingSuggestion suggestMapping(const BvhMotion& bvh, IDynamicsModel& model, in
   for (int k = 0; k < 2; ++k) {
     const ModelLimb& l = m.legs[k];
     const BvhLimb& bl = b.legs[k];
-    y << "  - {link: " << link(l.knee_or_elbow_body) << ", bvh: " << joint(bl.knee_or_elbow) << "}\n";
+    if (l.knee_or_elbow_body >= 0)
+      y << "  - {link: " << link(l.knee_or_elbow_body) << ", bvh: " << joint(bl.knee_or_elbow) << "}\n";
     y << "  - {link: " << link(l.foot_or_wrist_body) << ", bvh: " << joint(bl.ankle_or_wrist)
       << ", align: false, orientation_weight: 0.5}\n";
   }

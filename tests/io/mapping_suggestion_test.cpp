@@ -170,6 +170,29 @@ TEST(MappingSuggestion, AnUpperBodyStandingOnItsHandsIsRefused) {
   }
 }
 
+// Legs without ankles (a foot rigid with its shank, as Bolt's): the foot alone is mapped
+// (the shank too would be "rigidly attached to mapped link"), and the mapping retargets.
+TEST(MappingSuggestion, AFootRigidWithItsShankIsMappedAlone) {
+  auto model = editedMiniHumanoid(
+      [](std::string text) {
+        return std::regex_replace(text, std::regex(R"re(name="(talo_[lr]_[xy])" type="revolute")re"),
+                                  "name=\"$1\" type=\"fixed\"");
+      },
+      "mini_humanoid_no_ankles.urdf");
+  ASSERT_EQ(model->info().findJoint("talo_l_y"), -1) << "the ankles were not welded";
+  const BvhMotion bvh = readBvh(writeMiniBvh({knownAngles(0.2), knownAngles(0.6)}, "mini_no_ankles.bvh"));
+  const MappingSuggestion s = suggestMapping(bvh, *model);
+  const RetargetMapping m = parseRetargetMapping(s.yaml, "suggested.yaml");
+  const auto p = pairsOf(m);
+  EXPECT_EQ(p.count("tibia_l") + p.count("tibia_r"), 0u) << s.yaml;
+  EXPECT_EQ(p.at("sole_l"), "LAnkle");
+  EXPECT_EQ(p.at("sole_r"), "RAnkle");
+  int said = 0;
+  for (const std::string& n : s.notes) said += n.find("no ankle") != std::string::npos;
+  EXPECT_EQ(said, 2) << s.yaml;
+  EXPECT_NO_THROW(retargetBvh(bvh, m, *model));
+}
+
 struct CmuCase {
   const char* file;
   const char* units;  // expected length_scale
