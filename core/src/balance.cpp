@@ -19,13 +19,44 @@ constexpr double kInfeasibleAfterS = 0.25;  // s the reference must look infeasi
 constexpr double kReferenceFlatRad = 0.1;  // a reference sole this close to its surface is flat
 constexpr double kRollLookaheadS = 0.25;   // a face rolls only when the reference lifts it this soon
 
-// Poses @p model at rest in its neutral configuration with the base origin at the ground's
-// height: the body sunk into the ground, so that every corner of a sole touches it.
-void poseNeutralSunk(IDynamicsModel& model) {
+// Poses @p model at rest in its neutral configuration standing on the ground plane, turned
+// so that its up is the plane's normal, and sunk @p depth_m into it along the normal: the
+// collision engine then reports every point of a level sole within that depth of its lowest.
+// (Sinking the whole figure made the engines report a thin sole's top face, DART's box with
+// garbage depths, and filled the candidate list.) Leaves the model there with its contacts
+// in @p scratch.
+constexpr double kStandsOnDepth_m = 0.01;    // a body this close to the lowest point is stood on
+constexpr double kFootprintDepth_m = 0.0025;  // the face: points within 2 mm of a sole's lowest
+void poseNeutralOnGround(IDynamicsModel& model, double depth_m, ContactList& scratch) {
   const ModelInfo& info = model.info();
+  const GroundPlane& ground = model.environment().ground;
   Eigen::VectorXd q = info.neutralConfiguration();
-  q[2] = model.environment().ground.heightAt(q[0], q[1]);
-  model.setState(q, Eigen::VectorXd::Zero(info.nv));
+  const Eigen::Quaterniond up_to_normal = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), ground.n_W);
+  q[3] = up_to_normal.w();
+  q[4] = up_to_normal.x();
+  q[5] = up_to_normal.y();
+  q[6] = up_to_normal.z();
+  const Eigen::VectorXd v = Eigen::VectorXd::Zero(info.nv);
+  auto touches = [&](double base_z) {
+    q[2] = base_z;
+    model.setState(q, v);
+    model.detectContacts(scratch);
+    return std::any_of(scratch.begin(), scratch.end(),
+                       [](const ContactCandidate& c) { return c.object == kGroundObject; });
+  };
+  double touching = ground.heightAt(q[0], q[1]), free = touching + 3.0;
+  if (touches(touching)) {
+    for (int it = 0; it < 40; ++it) {
+      const double mid = 0.5 * (touching + free);
+      (touches(mid) ? touching : free) = mid;
+    }
+    q[2] = free;
+    q.head<3>() -= depth_m * ground.n_W;
+  } else {
+    q[2] = touching;
+  }
+  model.setState(q, v);
+  model.detectContacts(scratch);
 }
 
 }  // namespace
@@ -82,19 +113,16 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
     sole_bodies_.push_back(body);
   }
   if (soles_.empty() && model.environment().has_ground) {
-    // The bodies the model stands on: its neutral configuration sunk into the ground.
+    // The bodies the model stands on: its neutral configuration on the ground, sunk 1 cm.
     const Eigen::VectorXd q_saved = model.q(), v_saved = model.v();
-    poseNeutralSunk(model);
-    model.detectContacts(candidates_);
-    double deepest = 0.0;
-    for (const ContactCandidate& c : candidates_) deepest = std::max(deepest, c.depth_m);
+    poseNeutralOnGround(model, kStandsOnDepth_m, candidates_);
     for (const ContactCandidate& c : candidates_) {
-      if (c.depth_m < deepest - 0.01 || c.object != kGroundObject) continue;
+      if (c.object != kGroundObject) continue;
       if (std::find(sole_bodies_.begin(), sole_bodies_.end(), c.body) != sole_bodies_.end()) continue;
       SoleOptions sole;
       sole.body = info.body_names[static_cast<std::size_t>(c.body)];
-      // Out of the sole: up in the neutral configuration (not the ground's normal: a slope).
-      sole.n_B = model.bodyPose(c.body).linear().transpose() * Eigen::Vector3d::UnitZ();
+      // Out of the sole: up in the neutral configuration (posed with up on the ground's normal).
+      sole.n_B = model.bodyPose(c.body).linear().transpose() * model.environment().ground.n_W;
       soles_.push_back(sole);
       sole_bodies_.push_back(c.body);
     }
@@ -104,11 +132,10 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
   sole_refs_.resize(soles_.size());
   footprints_.resize(soles_.size());
   if (model.environment().has_ground && !soles_.empty()) {
-    // Footprints: the neutral configuration sunk into the ground (every corner of a sole
-    // is reported); a sole's face is its points lowest along its normal (within 2 mm).
+    // Footprints: the neutral configuration on the ground, sunk 2.5 mm (every corner of a
+    // level sole is reported); a sole's face is its points lowest along its normal (within 2 mm).
     const Eigen::VectorXd q_saved = model.q(), v_saved = model.v();
-    poseNeutralSunk(model);
-    model.detectContacts(candidates_);
+    poseNeutralOnGround(model, kFootprintDepth_m, candidates_);
     for (std::size_t s = 0; s < soles_.size(); ++s) {
       SoleFootprint& f = footprints_[s];
       const Eigen::Vector3d n = soles_[s].n_B;

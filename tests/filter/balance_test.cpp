@@ -4,6 +4,9 @@
 // in a clear status instead of teleports, landings and push-offs of a sole. The CMU walk's
 // first steps: balance_walk_test.cpp.
 #include <algorithm>
+#include <fstream>
+#include <iterator>
+#include <limits>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -502,6 +505,44 @@ TEST(Balance, ARollingSolesRowsAreMetByTheReferencesOwnRoll) {
   const Eigen::Vector3d achieved = tasks.T.block(row, 0, 3, info.nv) * reference.vdot;
   EXPECT_LT((achieved - tasks.r.segment<3>(row)).norm(), 1e-6)
       << achieved.transpose() << " against " << tasks.r.segment<3>(row).transpose();
+}
+
+// Each sole's footprint (the face the flat landing holds) lies on the sole's lowest points
+// when the model stands, in both engines: boxes, the test meshes, and a 1 cm mesh plate
+// whose top vertices come first (found from the whole figure sunk into the ground, that
+// plate's footprint was its top face, and every landing sank the sole by its thickness).
+TEST(Balance, SoleFootprintsLieOnTheSolesLowestPoints) {
+  std::ifstream in(test::testModelPath("mini_humanoid.urdf"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string box = R"(<geometry><box size="0.18 0.08 0.02"/></geometry>)";
+  for (std::size_t at = text.find(box); at != std::string::npos; at = text.find(box, at))
+    text.replace(at, box.size(),
+                 R"(<geometry><mesh filename="package://dynfilter_test_meshes/meshes/thin_plate_sole.obj"/></geometry>)");
+  const std::string plate_path = ::testing::TempDir() + "/mini_humanoid_plate_soles.urdf";
+  std::ofstream(plate_path) << text;
+  const std::vector<std::string> urdfs = {test::testModelPath("mini_humanoid.urdf"),
+                                          test::testModelPath("mesh_sole_biped.urdf"), plate_path};
+  for (const std::string& path : urdfs)
+    for (const char* backend : {"dart", "ode"}) {
+      SCOPED_TRACE(path + " on " + backend);
+      auto model = test::makeModel(backend, urdf::loadUrdfFile(path, {{test::testModelPath("")}, {}}), ModelOptions{});
+      const BalanceLayer layer(*model, BalanceOptions{});
+      ASSERT_EQ(layer.soleBodies().size(), 2u);
+      ContactList contacts(256);
+      standingContacts(*model, model->info().neutralConfiguration(), contacts);
+      for (std::size_t s = 0; s < 2; ++s) {
+        const int body = layer.soleBodies()[s];
+        const BalanceLayer::SoleFootprint& f = layer.soleFootprints()[s];
+        ASSERT_TRUE(f.valid) << model->info().body_names[static_cast<std::size_t>(body)];
+        const Eigen::Vector3d n_B = f.X_BS.linear().col(2);
+        double lowest = std::numeric_limits<double>::infinity();
+        for (const ContactCandidate& c : contacts)
+          if (c.body == body) lowest = std::min(lowest, n_B.dot(c.p_BC));
+        EXPECT_NEAR(n_B.dot(f.X_BS.translation()), lowest, 1e-6)
+            << model->info().body_names[static_cast<std::size_t>(body)];
+        EXPECT_GT((f.max - f.min).minCoeff(), 0.07);  // every sole here is at least 8 cm wide
+      }
+    }
 }
 
 }  // namespace

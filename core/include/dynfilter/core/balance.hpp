@@ -151,6 +151,18 @@ class BalanceLayer {
   /// Bodies kept flat on the ground while in contact (body indices).
   const std::vector<int>& soleBodies() const { return sole_bodies_; }
 
+  /// A sole's face in its body frame, found once from the neutral configuration standing on
+  /// the ground and sunk 2.5 mm into it: the sole's collision points lowest along its normal
+  /// (within 2 mm); the flat landing holds its face link there.
+  struct SoleFootprint {
+    Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();  ///< frame S in the body: z out of the sole, origin at the face's centroid
+    Eigen::Vector2d min = Eigen::Vector2d::Zero();  ///< the face's extent in S's x and y (m)
+    Eigen::Vector2d max = Eigen::Vector2d::Zero();
+    bool valid = false;  ///< a face at least 1 cm wide each way (not a point or an edge)
+  };
+  /// One per soleBodies() entry.
+  const std::vector<SoleFootprint>& soleFootprints() const { return footprints_; }
+
  private:
   static constexpr int kMaxSupport = 24;  // hull vertices of one support polygon
   std::uint64_t lifting_soon_ = 0;  // bodies in stance now that the preview lifts within 0.25 s
@@ -168,11 +180,6 @@ class BalanceLayer {
     std::array<double, 3> excess_key{{std::numeric_limits<double>::quiet_NaN(),
                                       std::numeric_limits<double>::quiet_NaN(),
                                       std::numeric_limits<double>::quiet_NaN()}};
-  };
-  struct SoleFootprint {  // the sole's face in its body: frame S (z out of the sole) and extent
-    Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();
-    Eigen::Vector2d min = Eigen::Vector2d::Zero(), max = Eigen::Vector2d::Zero();
-    bool valid = false;
   };
   struct SoleReference {  // a sole's pose and motion in the reference at this tick
     Eigen::Vector3d p = Eigen::Vector3d::Zero(), pdot = Eigen::Vector3d::Zero(), pddot = Eigen::Vector3d::Zero();
