@@ -26,12 +26,31 @@ void randomState(const ModelInfo& info, std::mt19937& rng, double velocity_scale
   for (int i = 0; i < info.nv; ++i) v[i] = velocity_scale * unit(rng);
 }
 
+constexpr double kStandingStep_m = 0.05;  // the downward scan of a base origin below the feet
+
 double standingBaseHeight(IDynamicsModel& model, Eigen::VectorXd q) {
   if (!model.info().floating_base)
     throw std::invalid_argument("standingBaseHeight needs a floating-base model");
   const Eigen::VectorXd v = Eigen::VectorXd::Zero(model.nv());
   ContactList contacts;
   double touching = 0.0, free = 3.0;
+  // A base whose origin lies below the feet (a root link at the ground, e.g. a footprint
+  // frame welded to the pelvis) stands with the origin below 0.
+  q[2] = 0.0;
+  model.setState(q, v);
+  model.detectContacts(contacts);
+  if (contacts.empty()) {
+    // Stepping down, not halving: a query far below the surface makes engines report
+    // garbage (DART's Bullet box-box past the middle of its 2 m ground slab, and its
+    // persistent manifolds keep those points for later queries).
+    for (free = 0.0; free > -3.0; free -= kStandingStep_m) {
+      q[2] = free - kStandingStep_m;
+      model.setState(q, v);
+      model.detectContacts(contacts);
+      if (!contacts.empty()) break;
+    }
+    touching = free - kStandingStep_m;
+  }
   for (int it = 0; it < 32; ++it) {
     q[2] = 0.5 * (touching + free);
     model.setState(q, v);

@@ -1,6 +1,8 @@
 // Contact candidates from each backend's collision engine.
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -128,6 +130,23 @@ TEST_P(Contacts, ContactListCountsOverflowInsteadOfGrowing) {
   EXPECT_EQ(small.size(), 2u);
   EXPECT_EQ(small.capacity(), 2u);
   EXPECT_GE(small.overflow(), 1u);  // the truncation is reported, not hidden
+}
+
+TEST_P(Contacts, ABaseOriginBelowTheFeetStandsBelowZero) {
+  // A root link one metre below the pelvis (a footprint frame welded to it): the model
+  // stands with that origin 0.27 m below the ground, where the mini humanoid's pelvis
+  // stands 0.73 m above it.
+  std::ifstream in(test::testModelPath("mini_humanoid.urdf"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto plain = test::makeModel(GetParam(), urdf::loadUrdfString(text, "mini_humanoid.urdf"), ModelOptions{});
+  const std::string tag = "<robot name=\"mini_humanoid\">";
+  text.replace(text.find(tag) + tag.size(), 0,
+               "<link name=\"footprint\"/><joint name=\"footprint_to_hips\" type=\"fixed\"><parent link=\"footprint\"/>"
+               "<child link=\"hips\"/><origin xyz=\"0 0 1\"/></joint>");
+  auto low = test::makeModel(GetParam(), urdf::loadUrdfString(text, "footprint.urdf"), ModelOptions{});
+  const double pelvis = standingBaseHeight(*plain, plain->info().neutralConfiguration());
+  EXPECT_NEAR(pelvis, 0.73, 1e-6);
+  EXPECT_NEAR(standingBaseHeight(*low, low->info().neutralConfiguration()), pelvis - 1.0, 1e-6);
 }
 
 TEST_P(Contacts, MeshSolesStandAtTheirHullsBottomVertices) {

@@ -101,6 +101,38 @@ TEST(UrdfLoader, FloatingJointIsUnsupportedNotUnknown) {
   expectModelError(arm("floating"), 6, "joint \"shoulder\"", "unsupported joint type");
 }
 
+// A `floating` joint from a root that stands for the world (no mass, no collision, no other
+// joint) to the robot's base: the world link and the joint are dropped, the base is the root,
+// and the description is the one without them (the warning says so).
+TEST(UrdfLoader, AFloatingJointFromAMasslessWorldMakesItsChildTheBase) {
+  std::string xml = arm();
+  xml.replace(xml.find("  <link name=\"base\">"), 0,
+              "  <link name=\"world\"/>\n  <joint name=\"root\" type=\"floating\"><parent link=\"world\"/>"
+              "<child link=\"base\"/><origin xyz=\"0 0 1\"/></joint>\n");
+  const RobotDescription with_world = loadUrdfString(xml, "arm.urdf");
+  const RobotDescription plain = loadUrdfString(arm(), "arm.urdf");
+  ASSERT_EQ(with_world.links.size(), plain.links.size());
+  ASSERT_EQ(with_world.joints.size(), plain.joints.size());
+  EXPECT_EQ(with_world.links[static_cast<std::size_t>(with_world.root_link)].name, "base");
+  EXPECT_EQ(with_world.links[static_cast<std::size_t>(with_world.root_link)].parent_joint, -1);
+  EXPECT_EQ(with_world.joints[0].name, "shoulder");
+  EXPECT_EQ(with_world.moving_joints, plain.moving_joints);
+  EXPECT_EQ(with_world.links[1].line, plain.links[1].line + 2);  // lines still those of the file
+  bool said = false;
+  for (const std::string& w : with_world.warnings)
+    said = said || w.find("arm.urdf:4: joint \"root\" (floating) from link \"world\": the floating base is link \"base\"") !=
+                       std::string::npos;
+  EXPECT_TRUE(said);
+  EXPECT_NO_THROW(validateForDynamics(with_world, true));
+
+  // A floating joint whose parent is a body (it has mass) is not a floating base: refused.
+  std::string heavy = xml;
+  heavy.replace(heavy.find("<link name=\"world\"/>"), std::string("<link name=\"world\"/>").size(),
+                "<link name=\"world\"><inertial><mass value=\"2\"/><inertia ixx=\"0.1\" iyy=\"0.1\" izz=\"0.1\" "
+                "ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>");
+  expectModelError(heavy, 4, "joint \"root\"", "floating joint is accepted only from a root link without mass");
+}
+
 TEST(UrdfLoader, AJointThatMovesNoMassIsRejectedByName) {
   // The massless leaf makes A singular: the error names the joint, its line and why.
   expectModelError(arm("revolute", "0"), 6, "joint \"shoulder\"",

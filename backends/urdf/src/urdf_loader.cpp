@@ -58,6 +58,7 @@ struct DocumentIndex {
   std::vector<std::string> joint_names;
   std::vector<int> joint_lines;
   std::map<std::string, int> mimic_line;          ///< joint name → line of its <mimic>
+  std::string floating_base_link;  ///< the child of a root `floating` joint (the root link dropped)
   std::vector<std::string> warnings;
   // Ignored elements by name: count and first line, in order of first appearance.
   std::vector<std::string> ignored_order;
@@ -89,6 +90,7 @@ DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
   index.robot_name = robot->Attribute("name") ? robot->Attribute("name") : "";
   std::map<std::string, int> link_line;
   std::map<std::string, int> joint_line;
+  std::vector<const tinyxml2::XMLElement*> floating_joints;
 
   auto requireName = [&](const tinyxml2::XMLElement* e) -> std::string {
     const char* name = e->Attribute("name");
@@ -146,11 +148,13 @@ DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
       const char* type = e->Attribute("type");
       if (type == nullptr)
         throw ModelError(source, e->GetLineNum(), label, "missing the type attribute");
-      if (kKnownUnsupportedJointTypes.count(type))
+      if (std::strcmp(type, "floating") == 0) {
+        floating_joints.push_back(e);  // accepted from a root that is only the world (below)
+      } else if (kKnownUnsupportedJointTypes.count(type))
         throw ModelError(source, e->GetLineNum(), label,
                          "unsupported joint type " + quoted(type) +
                              " (supported: revolute, continuous, prismatic, fixed)");
-      if (!kSupportedJointTypes.count(type))
+      if (!kSupportedJointTypes.count(type) && std::strcmp(type, "floating") != 0)
         throw ModelError(source, e->GetLineNum(), label,
                          "unknown joint type " + quoted(type) +
                              " (supported: revolute, continuous, prismatic, fixed)");
@@ -210,6 +214,43 @@ DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
   }
   if (index.link_names.empty())
     throw ModelError(source, robot->GetLineNum(), "<robot>", "no <link> elements");
+  // A `floating` joint from a root link that stands for the world (no mass, no collision,
+  // no other joint; "world" in many descriptions) to the robot's base says what every model
+  // here has: a floating base. The root link and the joint are dropped; the base is the child.
+  for (const tinyxml2::XMLElement* e : floating_joints) {
+    const std::string name = e->Attribute("name");
+    const std::string parent = e->FirstChildElement("parent")->Attribute("link");
+    const std::string child = e->FirstChildElement("child")->Attribute("link");
+    const tinyxml2::XMLElement* parent_link = nullptr;
+    for (auto* l = robot->FirstChildElement("link"); l; l = l->NextSiblingElement("link"))
+      if (parent == l->Attribute("name")) parent_link = l;
+    int parent_joints = 0;
+    for (auto* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint"))
+      parent_joints += parent == j->FirstChildElement("parent")->Attribute("link") ? 1 : 0;
+    const auto* mass = parent_link->FirstChildElement("inertial")
+                           ? parent_link->FirstChildElement("inertial")->FirstChildElement("mass")
+                           : nullptr;
+    const bool massless = mass == nullptr || mass->DoubleAttribute("value", 1.0) == 0.0;
+    if (floating_joints.size() > 1 || joint_of_child.count(parent) || parent_joints != 1 || !massless ||
+        parent_link->FirstChildElement("collision") != nullptr)
+      throw ModelError(source, e->GetLineNum(), "joint " + quoted(name.c_str()),
+                       "unsupported joint type \"floating\" here (a floating joint is accepted only "
+                       "from a root link without mass, collision or other joints, the world, to the "
+                       "base; supported: revolute, continuous, prismatic, fixed)");
+    const auto drop = [](std::vector<std::string>& names, const std::string& n) {
+      return static_cast<std::size_t>(std::find(names.begin(), names.end(), n) - names.begin());
+    };
+    const std::size_t l = drop(index.link_names, parent), j = drop(index.joint_names, name);
+    index.link_names.erase(index.link_names.begin() + static_cast<std::ptrdiff_t>(l));
+    index.link_lines.erase(index.link_lines.begin() + static_cast<std::ptrdiff_t>(l));
+    index.collision_lines.erase(index.collision_lines.begin() + static_cast<std::ptrdiff_t>(l));
+    index.joint_names.erase(index.joint_names.begin() + static_cast<std::ptrdiff_t>(j));
+    index.joint_lines.erase(index.joint_lines.begin() + static_cast<std::ptrdiff_t>(j));
+    index.floating_base_link = child;
+    index.warnings.push_back(source + ":" + std::to_string(e->GetLineNum()) + ": joint " + quoted(name.c_str()) +
+                             " (floating) from link " + quoted(parent.c_str()) + ": the floating base is link " +
+                             quoted(child.c_str()) + "; link " + quoted(parent.c_str()) + " is the world, dropped");
+  }
   return index;
 }
 
@@ -435,7 +476,7 @@ RobotDescription buildDescription(const ::urdf::ModelInterface& model, DocumentI
     child.parent_joint = static_cast<int>(j);
     robot.links[robot.joints[j].parent_link].child_joints.push_back(static_cast<int>(j));
   }
-  robot.root_link = link_index.at(model.getRoot()->name);
+  robot.root_link = link_index.at(index.floating_base_link.empty() ? model.getRoot()->name : index.floating_base_link);
   return robot;
 }
 
