@@ -7,6 +7,7 @@
 #include <string>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "dynfilter/core/errors.hpp"
 #include "dynfilter/core/kinematic_tree.hpp"
@@ -16,6 +17,35 @@
 
 namespace dynfilter {
 namespace {
+
+// The joints' block of A at the neutral configuration must be regular: a combination of
+// joints that moves no inertia (a point-mass head on neck axes that meet at it, iCub's)
+// has accelerations no torque decides, and both solves then drift without bound (iCub's
+// neck turned by 3 400 rad, contact forces of 1e10 N). Throws, naming the joints.
+constexpr double kSingularInertiaRatio = 1e-9;  // smallest over largest eigenvalue of A_JJ
+
+void requireRegularJointInertia(IDynamicsModel& model) {
+  const ModelInfo& info = model.info();
+  const int nj = info.nj;
+  if (nj == 0) return;
+  const Eigen::VectorXd q_saved = model.q(), v_saved = model.v();
+  model.setState(info.neutralConfiguration(), Eigen::VectorXd::Zero(info.nv));
+  Eigen::MatrixXd A(info.nv, info.nv);
+  model.massMatrix(A);
+  model.setState(q_saved, v_saved);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(A.bottomRightCorner(nj, nj));
+  const double largest = eig.eigenvalues()[nj - 1];
+  if (eig.eigenvalues()[0] > kSingularInertiaRatio * largest) return;
+  const Eigen::VectorXd mode = eig.eigenvectors().col(0);
+  std::string joints;
+  for (int j = 0; j < nj; ++j)
+    if (std::abs(mode[j]) >= 0.1) joints += (joints.empty() ? "\"" : ", \"") + info.joint_names[static_cast<std::size_t>(j)] + "\"";
+  throw std::invalid_argument("model \"" + info.name + "\": joint(s) " + joints +
+                              " together move no inertia at the neutral configuration (the mass matrix is "
+                              "singular): no torque decides their accelerations and the filter would drift "
+                              "without bound; lock one of them (--lock-joints) or give the links they move a "
+                              "rotational inertia");
+}
 
 // Capacity of the collision candidate list: several points per touching shape.
 constexpr std::size_t kMaxCandidates = 64;
@@ -37,6 +67,7 @@ DynamicsFilter::DynamicsFilter(IDynamicsModel& model, const FilterOptions& optio
                    6 * options.contacts.max_links),
       out_(model.nq(), model.nv(), model.nj(), options.contacts.max_links) {
   const ModelInfo& info = model.info();
+  requireRegularJointInertia(model_);
   if (options_.task.enabled) {
     task_body_ = options_.task.body.empty() ? chooseTrunkBody(model_)
                                             : info.findBody(options_.task.body);
