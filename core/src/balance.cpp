@@ -22,9 +22,8 @@ constexpr double kRollLookaheadS = 0.25;   // a face rolls only when the referen
 // Poses @p model at rest in its neutral configuration standing on the ground plane, turned
 // so that its up is the plane's normal, and sunk @p depth_m into it along the normal: the
 // collision engine then reports every point of a level sole within that depth of its lowest.
-// (Sinking the whole figure made the engines report a thin sole's top face, DART's box with
-// garbage depths, and filled the candidate list.) Leaves the model there with its contacts
-// in @p scratch.
+// (Sunk by a leg's length, engines reported a thin sole's top face with garbage depths and
+// filled the candidate list.) Leaves the model there with its contacts in @p scratch.
 constexpr double kStandsOnDepth_m = 0.01;    // a body this close to the lowest point is stood on
 constexpr double kFootprintDepth_m = 0.0025;  // the face: points within 2 mm of a sole's lowest
 void poseNeutralOnGround(IDynamicsModel& model, double depth_m, ContactList& scratch) {

@@ -19,9 +19,9 @@ namespace dynfilter {
 namespace {
 
 // The joints' block of A at the neutral configuration must be regular: a combination of
-// joints that moves no inertia (a point-mass head on neck axes that meet at it, iCub's)
-// has accelerations no torque decides, and both solves then drift without bound (iCub's
-// neck turned by 3 400 rad, contact forces of 1e10 N). Throws, naming the joints.
+// joints that moves no inertia (a point-mass head on neck axes that meet at it) has
+// accelerations no torque decides, and both solves then drift without bound (a neck turned
+// by thousands of radians, contact forces of 1e10 N). Throws, naming the joints.
 constexpr double kSingularInertiaRatio = 1e-9;  // smallest over largest eigenvalue of A_JJ
 
 void requireRegularJointInertia(IDynamicsModel& model) {

@@ -40,9 +40,8 @@ double standingBaseHeight(IDynamicsModel& model, Eigen::VectorXd q) {
   model.setState(q, v);
   model.detectContacts(contacts);
   if (contacts.empty()) {
-    // Stepping down, not halving: a query far below the surface makes engines report
-    // garbage (DART's Bullet box-box past the middle of its 2 m ground slab, and its
-    // persistent manifolds keep those points for later queries).
+    // Stepping down, not halving: a query far below the surface can make an engine report
+    // garbage that its persistent contact manifolds keep for later queries.
     for (free = 0.0; free > -3.0; free -= kStandingStep_m) {
       q[2] = free - kStandingStep_m;
       model.setState(q, v);

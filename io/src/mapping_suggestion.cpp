@@ -305,6 +305,45 @@ int pivotAndBend(IDynamicsModel& model, const KinematicTree& tree, const std::ve
   return -1;
 }
 
+// A leg found on the model: the body it stands on, its knee, its hip's pivot (world).
+struct FoundLeg {
+  int foot = -1, knee_joint = -1;
+  Eigen::Vector3d pivot_W = Eigen::Vector3d::Zero();
+};
+
+// Which way the model faces, in its base frame (±x or ±y): a knee bends its foot backwards
+// (into the side of its range with more room), whatever the base frame's axes say. Knees
+// with no such side: +x, with a note. Poses @p model at @p q0 at rest on return.
+Eigen::Vector3d forwardFromKnees(IDynamicsModel& model, const Eigen::VectorXd& q0, const Eigen::Isometry3d& X_WB,
+                                 const std::vector<FoundLeg>& legs, std::vector<std::string>& notes) {
+  const ModelInfo& info = model.info();
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(info.nv);
+  Eigen::Vector3d back_W = Eigen::Vector3d::Zero();
+  for (const FoundLeg& leg : legs) {
+    const int j = leg.knee_joint;
+    const int iq = info.configurationIndex(j);
+    const double room_up = info.q_upper[j] - q0[iq], room_down = q0[iq] - info.q_lower[j];
+    if (!std::isfinite(room_up) || !std::isfinite(room_down) ||
+        std::max(room_up, room_down) < kKneeRoomRatio * std::min(room_up, room_down))
+      continue;
+    Eigen::VectorXd q = q0;
+    q[iq] += room_up > room_down ? std::min(kKneeProbe_rad, 0.5 * room_up) : -std::min(kKneeProbe_rad, 0.5 * room_down);
+    model.setState(q, v0);
+    const Eigen::Vector3d p_bent = model.bodyPose(leg.foot).translation();
+    model.setState(q0, v0);
+    const Eigen::Vector3d d = p_bent - model.bodyPose(leg.foot).translation();
+    back_W += Eigen::Vector3d(d.x(), d.y(), 0.0);
+  }
+  Eigen::Vector3d forward_B = Eigen::Vector3d::UnitX();
+  if (back_W.norm() > 1e-6) {
+    const Eigen::Vector3d f = -(X_WB.rotation().transpose() * back_W);
+    axisName(Eigen::Vector3d(f.x(), f.y(), 0.0), forward_B);
+  } else {
+    notes.push_back("the knees do not say which way the model faces (no range to bend into): its base's +x taken as forward");
+  }
+  return forward_B;
+}
+
 ModelMatch matchModel(IDynamicsModel& model, std::vector<std::string>& notes) {
   const ModelInfo& info = model.info();
   if (!info.floating_base) throw std::invalid_argument("suggestMapping: model " + info.name + " has no floating base");
@@ -326,10 +365,6 @@ ModelMatch matchModel(IDynamicsModel& model, std::vector<std::string>& notes) {
     return groups[static_cast<std::size_t>(j)] == g && (p < 0 || groups[static_cast<std::size_t>(p)] != g);
   };
   // Legs: each ends in the sole it stands on.
-  struct FoundLeg {
-    int foot = -1, knee_joint = -1;
-    Eigen::Vector3d pivot_W;
-  };
   std::vector<FoundLeg> found;
   for (int root = 0; root < info.nj; ++root) {
     if (!isLimbRoot(root, JointGroup::kLeg)) continue;
@@ -380,33 +415,7 @@ ModelMatch matchModel(IDynamicsModel& model, std::vector<std::string>& notes) {
            ": arms, not legs");
   }
 
-  // Which way the model faces: a knee bends the foot backwards (into the side of its range
-  // with more room), whatever the base frame's axes say.
-  Eigen::Vector3d back_W = Eigen::Vector3d::Zero();
-  for (const FoundLeg& leg : found) {
-    const int j = leg.knee_joint;
-    const int iq = info.configurationIndex(j);
-    const double room_up = info.q_upper[j] - q0[iq], room_down = q0[iq] - info.q_lower[j];
-    if (!std::isfinite(room_up) || !std::isfinite(room_down) ||
-        std::max(room_up, room_down) < kKneeRoomRatio * std::min(room_up, room_down))
-      continue;
-    Eigen::VectorXd q = q0;
-    q[iq] += room_up > room_down ? std::min(kKneeProbe_rad, 0.5 * room_up) : -std::min(kKneeProbe_rad, 0.5 * room_down);
-    model.setState(q, v0);
-    const Eigen::Vector3d p_bent = model.bodyPose(leg.foot).translation();
-    model.setState(q0, v0);
-    const Eigen::Vector3d d = p_bent - model.bodyPose(leg.foot).translation();
-    back_W += Eigen::Vector3d(d.x(), d.y(), 0.0);
-  }
-  const Eigen::Matrix3d R_WB = X_WB.rotation();
-  Eigen::Vector3d forward_B = Eigen::Vector3d::UnitX();
-  if (back_W.norm() > 1e-6) {
-    const Eigen::Vector3d f = -(R_WB.transpose() * back_W);
-    const Eigen::Vector3d horizontal(f.x(), f.y(), 0.0);
-    axisName(horizontal, forward_B);
-  } else {
-    notes.push_back("the knees do not say which way the model faces (no range to bend into): its base's +x taken as forward");
-  }
+  const Eigen::Vector3d forward_B = forwardFromKnees(model, q0, X_WB, found, notes);
   m.forward_B = forward_B;
   const Eigen::Vector3d left_B = Eigen::Vector3d::UnitZ().cross(forward_B);
   auto sideOf = [&](int body) {
