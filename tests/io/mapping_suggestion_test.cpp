@@ -34,6 +34,39 @@ std::map<std::string, std::string> pairsOf(const RetargetMapping& m) {
   return out;
 }
 
+// The mini humanoid's links and the joints of its own capture they are matched to.
+const std::map<std::string, std::string> kMiniPairs = {
+    {"hips", "Hips"},     {"chest", "Waist"},   {"tibia_l", "LKnee"}, {"sole_l", "LAnkle"},
+    {"tibia_r", "RKnee"}, {"sole_r", "RAnkle"}, {"ulna_l", "LElbow"}, {"ulna_r", "RElbow"}};
+
+// Retargets @p bvh with @p m (the IK's pull towards q = 0 off, as in the IK mode's own
+// tests) and expects the capture's joint angles back within 1e-3 rad.
+void expectTheCapturesAngles(const BvhMotion& bvh, const RetargetMapping& m, IDynamicsModel& model,
+                             const std::vector<std::map<std::string, double>>& truth) {
+  RetargetMapping exact = m;
+  exact.ik.posture_weight = 1e-4;
+  exact.ik.max_iterations = 200;
+  const RetargetResult r = retargetBvh(bvh, exact, model);
+  const ModelInfo& info = model.info();
+  for (std::size_t k = 0; k < truth.size(); ++k)
+    for (const auto& [name, value] : truth[k]) {
+      if (name.rfind("cubitus", 0) == 0) continue;  // no wrist target: the elbow's angle is free
+      EXPECT_NEAR(r.motion.frames[k].q[info.configurationIndex(info.findJoint(name))], value, 1e-3)
+          << name << " frame " << k;
+    }
+}
+
+// The mini humanoid's capture suggested onto @p model is refused with @p reason.
+void expectModelRefused(IDynamicsModel& model, const std::string& reason) {
+  const BvhMotion bvh = readBvh(writeMiniBvh({knownAngles(0.0), knownAngles(0.1)}, "mini_refused.bvh"));
+  try {
+    suggestMapping(bvh, model);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(reason), std::string::npos) << e.what();
+  }
+}
+
 // The mini humanoid's capture of itself: every limb is matched, the chest (no neck above
 // it) keeps its rest orientation, and the suggestion retargets the capture's angles.
 TEST(MappingSuggestion, TheMiniHumanoidsOwnCaptureIsMatchedByStructure) {
@@ -43,14 +76,7 @@ TEST(MappingSuggestion, TheMiniHumanoidsOwnCaptureIsMatchedByStructure) {
   const BvhMotion bvh = readBvh(writeMiniBvh(truth, "mini_suggest.bvh"));
   const MappingSuggestion s = suggestMapping(bvh, *model);
   const RetargetMapping m = parseRetargetMapping(s.yaml, "suggested.yaml");
-  EXPECT_EQ(pairsOf(m), (std::map<std::string, std::string>{{"hips", "Hips"},
-                                                            {"chest", "Waist"},
-                                                            {"tibia_l", "LKnee"},
-                                                            {"sole_l", "LAnkle"},
-                                                            {"tibia_r", "RKnee"},
-                                                            {"sole_r", "RAnkle"},
-                                                            {"ulna_l", "LElbow"},
-                                                            {"ulna_r", "RElbow"}}))
+  EXPECT_EQ(pairsOf(m), kMiniPairs)
       << s.yaml;
   EXPECT_EQ(m.mode, RetargetMode::kIk);
   EXPECT_EQ(m.up_axis, "+z");
@@ -63,17 +89,7 @@ TEST(MappingSuggestion, TheMiniHumanoidsOwnCaptureIsMatchedByStructure) {
   ASSERT_EQ(s.notes.size(), 1u);
   EXPECT_NE(s.notes[0].find("no neck"), std::string::npos);
 
-  RetargetMapping exact = m;  // the IK's pull towards q = 0 off, as in the IK mode's own tests
-  exact.ik.posture_weight = 1e-4;
-  exact.ik.max_iterations = 200;
-  const RetargetResult r = retargetBvh(bvh, exact, *model);
-  const ModelInfo& info = model->info();
-  for (std::size_t k = 0; k < truth.size(); ++k)
-    for (const auto& [name, value] : truth[k]) {
-      if (name.rfind("cubitus", 0) == 0) continue;  // no wrist target: the elbow's angle is free
-      EXPECT_NEAR(r.motion.frames[k].q[info.configurationIndex(info.findJoint(name))], value, 1e-3)
-          << name << " frame " << k;
-    }
+  expectTheCapturesAngles(bvh, m, *model, truth);
 }
 
 // The mini humanoid's URDF rewritten by @p edit, written to a temporary file and loaded.
@@ -116,31 +132,14 @@ TEST(MappingSuggestion, ARobotFacingItsBasesMinusXKeepsItsLeftAndItsAngles) {
   const BvhMotion bvh = readBvh(writeMiniBvh(truth, "mini_suggest_turned.bvh"));
   const MappingSuggestion s = suggestMapping(bvh, *model);
   const RetargetMapping m = parseRetargetMapping(s.yaml, "suggested.yaml");
-  EXPECT_EQ(pairsOf(m), (std::map<std::string, std::string>{{"hips", "Hips"},
-                                                            {"chest", "Waist"},
-                                                            {"tibia_l", "LKnee"},
-                                                            {"sole_l", "LAnkle"},
-                                                            {"tibia_r", "RKnee"},
-                                                            {"sole_r", "RAnkle"},
-                                                            {"ulna_l", "LElbow"},
-                                                            {"ulna_r", "RElbow"}}))
+  EXPECT_EQ(pairsOf(m), kMiniPairs)
       << s.yaml;
   EXPECT_EQ(m.bvh_forward, "-x");
   bool said = false;
   for (const std::string& n : s.notes) said = said || n.find("the model faces -x") != std::string::npos;
   EXPECT_TRUE(said) << s.yaml;
 
-  RetargetMapping exact = m;
-  exact.ik.posture_weight = 1e-4;
-  exact.ik.max_iterations = 200;
-  const RetargetResult r = retargetBvh(bvh, exact, *model);
-  const ModelInfo& info = model->info();
-  for (std::size_t k = 0; k < truth.size(); ++k)
-    for (const auto& [name, value] : truth[k]) {
-      if (name.rfind("cubitus", 0) == 0) continue;  // no wrist target: the elbow's angle is free
-      EXPECT_NEAR(r.motion.frames[k].q[info.configurationIndex(info.findJoint(name))], value, 1e-3)
-          << name << " frame " << k;
-    }
+  expectTheCapturesAngles(bvh, m, *model, truth);
 }
 
 // An upper body whose arms reach the floor (as a wheeled or mounted torso's do) stands on its
@@ -159,15 +158,7 @@ TEST(MappingSuggestion, AnUpperBodyStandingOnItsHandsIsRefused) {
       },
       "mini_upper_body.urdf");
   ASSERT_EQ(model->info().nj, 7) << "the legs were not removed";  // the spine twist and two arms of three
-  const BvhMotion bvh = readBvh(writeMiniBvh({knownAngles(0.0), knownAngles(0.1)}, "mini_upper_body.bvh"));
-  try {
-    suggestMapping(bvh, *model);
-    FAIL() << "no error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("hang from 0.300 m above the origin of its trunk link chest: arms, not legs"),
-              std::string::npos)
-        << e.what();
-  }
+  expectModelRefused(*model, "hang from 0.300 m above the origin of its trunk link chest: arms, not legs");
 }
 
 // Legs without ankles (a foot rigid with its shank, as Bolt's): the foot alone is mapped
@@ -263,15 +254,7 @@ TEST(MappingSuggestion, ASkeletonWithoutTwoLegsIsRefusedByName) {
 // A model that does not stand on two legs is refused, saying what it stands on.
 TEST(MappingSuggestion, AModelOnFourLegsIsRefusedWithItsFeet) {
   auto quadruped = test::makeModel("dart", urdf::loadUrdfFile(test::testModelPath("quadruped.urdf")), ModelOptions{});
-  const BvhMotion bvh = readBvh(writeMiniBvh({knownAngles(0.0), knownAngles(0.1)}, "mini_quadruped.bvh"));
-  try {
-    suggestMapping(bvh, *quadruped);
-    FAIL() << "no error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("does not stand on a left and a right leg: 4 legs end in a body it stands on"),
-              std::string::npos)
-        << e.what();
-  }
+  expectModelRefused(*quadruped, "does not stand on a left and a right leg: 4 legs end in a body it stands on");
 }
 
 }  // namespace

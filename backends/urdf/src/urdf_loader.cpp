@@ -237,10 +237,10 @@ DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
                        "unsupported joint type \"floating\" here (a floating joint is accepted only "
                        "from a root link without mass, collision or other joints, the world, to the "
                        "base; supported: revolute, continuous, prismatic, fixed)");
-    const auto drop = [](std::vector<std::string>& names, const std::string& n) {
+    const auto indexOf = [](const std::vector<std::string>& names, const std::string& n) {
       return static_cast<std::size_t>(std::find(names.begin(), names.end(), n) - names.begin());
     };
-    const std::size_t l = drop(index.link_names, parent), j = drop(index.joint_names, name);
+    const std::size_t l = indexOf(index.link_names, parent), j = indexOf(index.joint_names, name);
     index.link_names.erase(index.link_names.begin() + static_cast<std::ptrdiff_t>(l));
     index.link_lines.erase(index.link_lines.begin() + static_cast<std::ptrdiff_t>(l));
     index.collision_lines.erase(index.collision_lines.begin() + static_cast<std::ptrdiff_t>(l));
