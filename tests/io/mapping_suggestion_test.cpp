@@ -76,8 +76,7 @@ TEST(MappingSuggestion, TheMiniHumanoidsOwnCaptureIsMatchedByStructure) {
   const BvhMotion bvh = readBvh(writeMiniBvh(truth, "mini_suggest.bvh"));
   const MappingSuggestion s = suggestMapping(bvh, *model);
   const RetargetMapping m = parseRetargetMapping(s.yaml, "suggested.yaml");
-  EXPECT_EQ(pairsOf(m), kMiniPairs)
-      << s.yaml;
+  EXPECT_EQ(pairsOf(m), kMiniPairs) << s.yaml;
   EXPECT_EQ(m.mode, RetargetMode::kIk);
   EXPECT_EQ(m.up_axis, "+z");
   EXPECT_EQ(m.bvh_forward, "+x");
@@ -132,8 +131,7 @@ TEST(MappingSuggestion, ARobotFacingItsBasesMinusXKeepsItsLeftAndItsAngles) {
   const BvhMotion bvh = readBvh(writeMiniBvh(truth, "mini_suggest_turned.bvh"));
   const MappingSuggestion s = suggestMapping(bvh, *model);
   const RetargetMapping m = parseRetargetMapping(s.yaml, "suggested.yaml");
-  EXPECT_EQ(pairsOf(m), kMiniPairs)
-      << s.yaml;
+  EXPECT_EQ(pairsOf(m), kMiniPairs) << s.yaml;
   EXPECT_EQ(m.bvh_forward, "-x");
   bool said = false;
   for (const std::string& n : s.notes) said = said || n.find("the model faces -x") != std::string::npos;
