@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/core/polygon.hpp"
 
 namespace dynfilter {
@@ -35,26 +36,9 @@ void poseNeutralOnGround(IDynamicsModel& model, double depth_m, ContactList& scr
   q[4] = up_to_normal.x();
   q[5] = up_to_normal.y();
   q[6] = up_to_normal.z();
-  const Eigen::VectorXd v = Eigen::VectorXd::Zero(info.nv);
-  auto touches = [&](double base_z) {
-    q[2] = base_z;
-    model.setState(q, v);
-    model.detectContacts(scratch);
-    return std::any_of(scratch.begin(), scratch.end(),
-                       [](const ContactCandidate& c) { return c.object == kGroundObject; });
-  };
-  double touching = ground.heightAt(q[0], q[1]), free = touching + 3.0;
-  if (touches(touching)) {
-    for (int it = 0; it < 40; ++it) {
-      const double mid = 0.5 * (touching + free);
-      (touches(mid) ? touching : free) = mid;
-    }
-    q[2] = free;
-    q.head<3>() -= depth_m * ground.n_W;
-  } else {
-    q[2] = touching;
-  }
-  model.setState(q, v);
+  q[2] = standingBaseHeightOnGround(model, q);
+  q.head<3>() -= depth_m * ground.n_W;
+  model.setState(q, Eigen::VectorXd::Zero(info.nv));
   model.detectContacts(scratch);
 }
 

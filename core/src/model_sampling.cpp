@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 namespace dynfilter {
 
@@ -26,37 +27,59 @@ void randomState(const ModelInfo& info, std::mt19937& rng, double velocity_scale
   for (int i = 0; i < info.nv; ++i) v[i] = velocity_scale * unit(rng);
 }
 
+namespace {
+
+constexpr double kStandingRange_m = 3.0;  // searched above the start height
 constexpr double kStandingStep_m = 0.05;  // the downward scan of a base origin below the feet
 
-double standingBaseHeight(IDynamicsModel& model, Eigen::VectorXd q) {
+// The base height at which @p model in @p q first touches what @p touches accepts of its
+// contacts: bisection over [start, start + 3 m], taking the start as touching (a query far
+// below the surface can make an engine report garbage that its persistent contact
+// manifolds keep for later queries). When no query touched, the base origin lies below
+// the feet: a downward scan from the start in 5 cm steps (to 3 m), then bisection in the step.
+template <typename Touches>
+double standingHeightFrom(IDynamicsModel& model, Eigen::VectorXd q, double start_z, const Touches& touches) {
   if (!model.info().floating_base)
     throw std::invalid_argument("standingBaseHeight needs a floating-base model");
   const Eigen::VectorXd v = Eigen::VectorXd::Zero(model.nv());
   ContactList contacts;
-  double touching = 0.0, free = 3.0;
-  // A base whose origin lies below the feet (a root link at the ground, e.g. a footprint
-  // frame welded to the pelvis) stands with the origin below 0.
-  q[2] = 0.0;
-  model.setState(q, v);
-  model.detectContacts(contacts);
-  if (contacts.empty()) {
-    // Stepping down, not halving: a query far below the surface can make an engine report
-    // garbage that its persistent contact manifolds keep for later queries.
-    for (free = 0.0; free > -3.0; free -= kStandingStep_m) {
-      q[2] = free - kStandingStep_m;
-      model.setState(q, v);
-      model.detectContacts(contacts);
-      if (!contacts.empty()) break;
-    }
-    touching = free - kStandingStep_m;
-  }
-  for (int it = 0; it < 32; ++it) {
-    q[2] = 0.5 * (touching + free);
+  auto touchesAt = [&](double z) {
+    q[2] = z;
     model.setState(q, v);
     model.detectContacts(contacts);
-    (contacts.empty() ? free : touching) = q[2];
-  }
+    return touches(contacts);
+  };
+  double touching = start_z, free = start_z + kStandingRange_m;
+  bool touched = false;
+  auto bisect = [&] {
+    for (int it = 0; it < 32; ++it) {
+      const double mid = 0.5 * (touching + free);
+      const bool t = touchesAt(mid);
+      touched = touched || t;
+      (t ? touching : free) = mid;
+    }
+  };
+  bisect();
+  if (touched) return free;
+  for (free = start_z; free > start_z - kStandingRange_m; free -= kStandingStep_m)
+    if (touchesAt(free - kStandingStep_m)) break;
+  touching = free - kStandingStep_m;
+  bisect();
   return free;
+}
+
+}  // namespace
+
+double standingBaseHeight(IDynamicsModel& model, Eigen::VectorXd q) {
+  return standingHeightFrom(model, std::move(q), 0.0, [](const ContactList& c) { return !c.empty(); });
+}
+
+double standingBaseHeightOnGround(IDynamicsModel& model, Eigen::VectorXd q) {
+  const double start_z = model.environment().ground.heightAt(q[0], q[1]);
+  return standingHeightFrom(model, std::move(q), start_z, [](const ContactList& contacts) {
+    return std::any_of(contacts.begin(), contacts.end(),
+                       [](const ContactCandidate& c) { return c.object == kGroundObject; });
+  });
 }
 
 double standingContacts(IDynamicsModel& model, Eigen::VectorXd q, ContactList& contacts) {

@@ -148,13 +148,13 @@ DocumentIndex indexDocument(const std::string& xml, const std::string& source) {
       const char* type = e->Attribute("type");
       if (type == nullptr)
         throw ModelError(source, e->GetLineNum(), label, "missing the type attribute");
-      if (std::strcmp(type, "floating") == 0) {
+      if (std::strcmp(type, "floating") == 0)
         floating_joints.push_back(e);  // accepted from a root that is only the world (below)
-      } else if (kKnownUnsupportedJointTypes.count(type))
+      else if (kKnownUnsupportedJointTypes.count(type))
         throw ModelError(source, e->GetLineNum(), label,
                          "unsupported joint type " + quoted(type) +
                              " (supported: revolute, continuous, prismatic, fixed)");
-      if (!kSupportedJointTypes.count(type) && std::strcmp(type, "floating") != 0)
+      else if (!kSupportedJointTypes.count(type))
         throw ModelError(source, e->GetLineNum(), label,
                          "unknown joint type " + quoted(type) +
                              " (supported: revolute, continuous, prismatic, fixed)");

@@ -21,10 +21,14 @@ void randomState(const ModelInfo& info, std::mt19937& rng, double velocity_scale
 
 /// The base height (world z, m) at which @p model, in configuration @p q with its base at
 /// that height, first touches the environment according to its own collision engine
-/// (bisection to 1e-9 m over [0, 3] m; when it does not touch with the base at 0 — a base
-/// origin below the feet — a downward scan in 5 cm steps to −3 m, then bisection within
-/// the step). Changes the model's state. Floating base only.
+/// (bisection to 1e-9 m over [0, 3] m; when no height there touches — a base origin below
+/// the feet — a downward scan in 5 cm steps to −3 m, then bisection within the step).
+/// Changes the model's state. Floating base only.
 double standingBaseHeight(IDynamicsModel& model, Eigen::VectorXd q);
+
+/// standingBaseHeight against the ground plane alone (boxes of the environment ignored),
+/// searched from the ground's height under the base (x, y of @p q) up. Requires a ground.
+double standingBaseHeightOnGround(IDynamicsModel& model, Eigen::VectorXd q);
 
 /// The collision points of @p model standing in configuration @p q on its environment: the
 /// base at standingBaseHeight less 0.1 mm, so that the collision engine reports every point
