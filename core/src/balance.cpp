@@ -27,6 +27,7 @@ constexpr double kRollLookaheadS = 0.25;   // a face rolls only when the referen
 // filled the candidate list.) Leaves the model there with its contacts in @p scratch.
 constexpr double kStandsOnDepth_m = 0.01;    // a body this close to the lowest point is stood on
 constexpr double kFootprintDepth_m = 0.0025;  // the face: points within 2 mm of a sole's lowest
+constexpr double kAnkleOffCentre = 0.05;      // of the sole's length: an ankle this far from its middle marks the heel
 void poseNeutralOnGround(IDynamicsModel& model, double depth_m, ContactList& scratch) {
   const ModelInfo& info = model.info();
   const GroundPlane& ground = model.environment().ground;
@@ -147,8 +148,22 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
           f.min = f.min.cwiseMin(xy);
           f.max = f.max.cwiseMax(xy);
         }
-      f.X_BS.linear().col(0) = x;
-      f.X_BS.linear().col(1) = y;
+      // S's x points to the toes: along the face's longer side, away from the body's origin
+      // (the ankle joint stands over the heel's half). An ankle over the middle keeps the body's x.
+      const Eigen::Vector2d extent = f.max - f.min;
+      const int along = extent.x() >= extent.y() ? 0 : 1;
+      const Eigen::Vector3d long_B = along == 0 ? x : y;
+      const double ankle = long_B.dot(-centroid) - 0.5 * (f.min[along] + f.max[along]);
+      Eigen::Vector3d toes = x;
+      if (std::fabs(ankle) >= kAnkleOffCentre * extent[along]) toes = ankle < 0.0 ? long_B : Eigen::Vector3d(-long_B);
+      if (toes != x) {  // the extent in the axes turned by a quarter or half turn about n
+        const Eigen::Matrix2d R = (Eigen::Matrix2d() << toes.dot(x), toes.dot(y), -toes.dot(y), toes.dot(x)).finished();
+        const Eigen::Vector2d a = R * f.min, b = R * f.max;
+        f.min = a.cwiseMin(b);
+        f.max = a.cwiseMax(b);
+      }
+      f.X_BS.linear().col(0) = toes;
+      f.X_BS.linear().col(1) = n.cross(toes);
       f.X_BS.linear().col(2) = n;
       f.X_BS.translation() = centroid;
       f.valid = (f.max - f.min).minCoeff() > 0.01;  // a face, not a corner or an edge
@@ -206,24 +221,35 @@ int BalanceLayer::rollSoles(VirtualLinkSet& links) const {
       continue;
     }
     // Only a heel-off rolls: a sole the reference lifts soon, tilted towards its toes (the
-    // normal leaning along the sole's x, forward by REP 103). A reference sole standing
-    // tilted otherwise (a retargeted ankle; a level sole on a slope, toes up downhill) is
-    // flattened, not rolled on.
-    const double dx = n_ref.dot(R_WA.col(0)), dy = n_ref.dot(R_WA.col(1));
-    if (tilt <= options_.roll_tilt_rad || dx <= std::fabs(dy) || link.body >= 64 ||
-        ((lifting_soon_ >> link.body) & 1u) == 0)
-      continue;
+    // normal leaning along the footprint's x, SoleFootprint). A reference sole standing tilted
+    // otherwise (a retargeted ankle; a level sole on a slope, toes up downhill) is flattened,
+    // not rolled on.
+    if (tilt <= options_.roll_tilt_rad || link.body >= 64 || ((lifting_soon_ >> link.body) & 1u) == 0) continue;
+    const Eigen::Vector2d d(n_ref.dot(R_WA.col(0)), n_ref.dot(R_WA.col(1)));
     if (link.kind != ContactKind::kFace) {
-      if (!link.rolling) links.setRolling(i, true);
+      // A link already on an edge or a point is marked when the lean runs along its own x
+      // (a point's: the body's x; an edge's: the edge). Toe-edge and toe-side rules measured
+      // worse on the walks (docs/balance.md §36).
+      if (d.x() > std::fabs(d.y()) && !link.rolling) links.setRolling(i, true);
       continue;
     }
-    // The edge the reference stays on: the toe edge, across the sole at its front.
+    const Eigen::Vector3d toes_C = link.X_BC.linear().transpose() * footprints_[s].X_BS.linear().col(0);
+    const Eigen::Vector2d t = Eigen::Vector2d(toes_C.x(), toes_C.y()).normalized();
+    if (d.dot(t) <= std::fabs(d.x() * t.y() - d.y() * t.x())) continue;
+    // The edge the reference stays on: the toe edge, the support's side the toes point to.
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();  // edge frame in A (and C)
-    // Along A's y at x = max: the edge frame's x is A's y.
-    const double mid_y = 0.5 * (link.support_min.y() + link.support_max.y());
-    T.translation() = Eigen::Vector3d(link.support_max.x(), mid_y, 0.0);
-    T.linear() << 0, -1, 0, 1, 0, 0, 0, 0, 1;
-    const double lo = link.support_min.y() - mid_y, hi = link.support_max.y() - mid_y;
+    const Eigen::Vector2d mid = 0.5 * (link.support_min + link.support_max);
+    double lo = 0.0, hi = 0.0;
+    if (std::fabs(t.x()) >= std::fabs(t.y())) {  // along A's y at x = max (or min): the edge frame's x is A's y
+      T.translation() = Eigen::Vector3d(t.x() > 0.0 ? link.support_max.x() : link.support_min.x(), mid.y(), 0.0);
+      T.linear() << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+      lo = link.support_min.y() - mid.y();
+      hi = link.support_max.y() - mid.y();
+    } else {  // along A's x at y = max (or min)
+      T.translation() = Eigen::Vector3d(mid.x(), t.y() > 0.0 ? link.support_max.y() : link.support_min.y(), 0.0);
+      lo = link.support_min.x() - mid.x();
+      hi = link.support_max.x() - mid.x();
+    }
     links.makeRollingEdge(i, link.X_BC * T, link.X_WA * T, lo, hi);
     ++changed;
   }

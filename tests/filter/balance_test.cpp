@@ -463,6 +463,57 @@ TEST(Balance, ASoleKeepsItsFaceWhenTheReferenceDoesNotLiftItOrRollingIsOff) {
   EXPECT_EQ(off.after.kind, ContactKind::kFace);
 }
 
+// Which end of a sole holds its toes comes from the model, not from the link frame's x: the
+// ankle stands over the heel's half. The test figure with its feet turned to point along −x
+// of their links (as on a robot that faces −x of its base) rolls onto its −x edge when the
+// reference raises that heel; with the link frame's x taken for the toes it was flattened.
+TEST(Balance, ASoleRollsOnTheEdgeItsToesPointTo) {
+  std::ifstream in(test::testModelPath("mini_humanoid.urdf"));
+  const std::string original((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const double toes : {1.0, -1.0}) {
+    SCOPED_TRACE(toes > 0 ? "toes along +x" : "toes along -x");
+    std::string text = original;
+    const std::string forward = R"(<origin xyz="0.03 0 -0.04"/>)", backward = R"(<origin xyz="-0.03 0 -0.04"/>)";
+    if (toes < 0)
+      for (std::size_t at = text.find(forward); at != std::string::npos; at = text.find(forward, at))
+        text.replace(at, forward.size(), backward);
+    const std::string path = ::testing::TempDir() + "/mini_humanoid_toes.urdf";
+    std::ofstream(path) << text;
+    auto model = test::makeModel("dart", urdf::loadUrdfFile(path), ModelOptions{});
+    const ModelInfo& info = model->info();
+    BalanceLayer layer(*model, BalanceOptions{});
+    ASSERT_EQ(layer.soleBodies().size(), 2u);
+    for (const BalanceLayer::SoleFootprint& f : layer.soleFootprints())
+      EXPECT_NEAR(f.X_BS.linear().col(0).x(), toes, 1e-9) << "the footprint's x points to the toes";
+
+    Eigen::VectorXd q = info.neutralConfiguration();
+    q[info.configurationIndex(info.findJoint("genu_l"))] = 1.0;  // left foot up
+    q[2] = standingBaseHeight(*model, q) - 0.001;                // the right sole 1 mm in, flat
+    ReferenceFrame now(info.nq, info.nv);
+    now.q = q;
+    now.q[info.configurationIndex(info.findJoint("talo_r_y"))] = 0.2 * toes;  // heel up
+    now.q[2] = standingBaseHeight(*model, now.q);
+    ReferenceFrame later = now;
+    later.time_s = 0.1;
+    later.q[info.configurationIndex(info.findJoint("genu_r"))] = 1.0;  // the right foot up
+    later.q[info.configurationIndex(info.findJoint("genu_l"))] = 0.0;
+    later.q[2] = standingBaseHeight(*model, later.q);
+    layer.pushPreview(*model, now);
+    layer.pushPreview(*model, later);
+    layer.prepare(*model, now, 1e-3);
+    VirtualLinkSet links = linksAt(*model, q);
+    const int foot = info.findBody("sole_r");
+    const VirtualLink before = linkOf(links, foot);
+    ASSERT_EQ(before.kind, ContactKind::kFace) << "the flat sole holds a face";
+    EXPECT_EQ(layer.rollSoles(links), 1);
+    const VirtualLink after = linkOf(links, foot);
+    EXPECT_EQ(after.kind, ContactKind::kEdge);
+    EXPECT_TRUE(after.rolling);
+    // The edge lies across the sole at its toes' end: 9 cm from the middle of an 18 cm sole.
+    EXPECT_NEAR((after.X_BC.translation() - before.X_BC.translation()).x(), 0.09 * toes, 1e-6);
+  }
+}
+
 // A rolling sole turns with the reference's: the figure stands on its right toe edge with
 // its heel 0.2 rad up, the ankle turning at 3 rad/s and speeding up by 20 rad/s², state and
 // reference alike. The sole's rows are then met by the reference's own acceleration: they

@@ -127,9 +127,9 @@ class BalanceLayer {
 
   /// Rolling soles (BalanceOptions::roll_tilt_rad): where the reference (at the last
   /// prepare()) has a sole on its toes — tilted from its surface by more than roll_tilt_rad,
-  /// its normal leaning along the sole's +x (forward, REP 103) — and its preview lifts that
-  /// sole within 0.25 s (heel-off, push-off), the sole's held face link becomes an edge link
-  /// on the rectangle's front edge, so that the sole can hinge there, and the sole's links
+  /// its normal leaning towards its toes (SoleFootprint::X_BS's x) — and its preview lifts
+  /// that sole within 0.25 s (heel-off, push-off), the sole's held face link becomes an edge
+  /// link on the rectangle's side at the toes, so that the sole can hinge there, and its links
   /// are marked rolling (no upgrade to a face) until the reference's sole is within half
   /// that tilt or the rest of the sole sinks 2 mm into the surface (it has landed).
   /// Returns the links changed. No allocation.
@@ -155,7 +155,10 @@ class BalanceLayer {
   /// the ground and sunk 2.5 mm into it: the sole's collision points lowest along its normal
   /// (within 2 mm); the flat landing holds its face link there.
   struct SoleFootprint {
-    Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();  ///< frame S in the body: z out of the sole, origin at the face's centroid
+    /// Frame S in the body: z out of the sole, x towards the toes (along the face's longer
+    /// side, away from the body's origin, the ankle; the body's x when the ankle stands within
+    /// 5 % of the sole's length of its middle), origin at the face's centroid.
+    Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();
     Eigen::Vector2d min = Eigen::Vector2d::Zero();  ///< the face's extent in S's x and y (m)
     Eigen::Vector2d max = Eigen::Vector2d::Zero();
     bool valid = false;  ///< a face at least 1 cm wide each way (not a point or an edge)
