@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/model_sampling.hpp"
@@ -89,6 +90,9 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
       q_lowered_(Eigen::VectorXd::Zero(model.nq())) {
   const ModelInfo& info = model.info();
   if (!info.floating_base) throw std::invalid_argument("the balance layer needs a floating base");
+  if (static_cast<int>(info.body_names.size()) > kMaxSetBodies)
+    throw std::invalid_argument("the balance layer tracks the stance of at most " + std::to_string(kMaxSetBodies) +
+                                " bodies; model \"" + info.name + "\" has " + std::to_string(info.body_names.size()));
   for (const SoleOptions& sole : soles_) {
     const int body = info.findBody(sole.body);
     if (body < 0)
@@ -224,7 +228,7 @@ int BalanceLayer::rollSoles(VirtualLinkSet& links) const {
     // normal leaning along the footprint's x, SoleFootprint). A reference sole standing tilted
     // otherwise (a retargeted ankle; a level sole on a slope, toes up downhill) is flattened,
     // not rolled on.
-    if (tilt <= options_.roll_tilt_rad || link.body >= 64 || ((lifting_soon_ >> link.body) & 1u) == 0) continue;
+    if (tilt <= options_.roll_tilt_rad || !holds(lifting_soon_, link.body)) continue;
     const Eigen::Vector2d d(n_ref.dot(R_WA.col(0)), n_ref.dot(R_WA.col(1)));
     if (link.kind != ContactKind::kFace) {
       // A link already on an edge or a point is marked when the lean runs along its own x
@@ -286,14 +290,14 @@ void BalanceLayer::makeSample(IDynamicsModel& model, const ReferenceFrame& frame
   model.setState(q_lowered_, frame.v);
   model.detectContacts(candidates_);
   int n = 0;
-  out.stance = 0;
+  out.stance.reset();
   for (const ContactCandidate& c : candidates_) {
     if (n >= static_cast<int>(points_.size())) break;
     const Eigen::Vector3d v_point = model.pointVelocity(c.body, c.p_WC);
     // Slow along the surface: a reference foot sinking into the ground is still in stance.
     if ((v_point - c.n_W * c.n_W.dot(v_point)).norm() > options_.stance_speed_mps) continue;
     points_[static_cast<std::size_t>(n++)] = c.p_WC.head<2>();
-    if (c.body < 64) out.stance |= std::uint64_t{1} << c.body;
+    out.stance.set(static_cast<std::size_t>(c.body));
   }
   out.num_support = convexHull(points_, n, out.support);
   model.setState(frame.q, frame.v);
@@ -426,7 +430,7 @@ void BalanceLayer::prepare(IDynamicsModel& model, const ReferenceFrame& referenc
   while (last < size_ && at(last).t <= t + window_s) ++last;
   state_.preview_samples = last - first;
   // Bodies the reference lifts within kRollLookaheadS (push-off): only they roll.
-  lifting_soon_ = 0;
+  lifting_soon_.reset();
   for (int i = first; i < size_ && at(i).t <= t + kRollLookaheadS; ++i) lifting_soon_ |= now_.stance & ~at(i).stance;
   if (last > first) {
     // The target is the reference's own DCM, moved by what its support cannot carry: the

@@ -357,13 +357,13 @@ int VirtualLinkSet::impactRows(const Eigen::Ref<const Eigen::MatrixXd>& H_C,
   return kept;
 }
 
-void VirtualLinkSet::applyReferenceSchedule(std::uint64_t stance_bodies) {
+void VirtualLinkSet::applyReferenceSchedule(const BodySet& stance_bodies) {
   schedule_applied_ = true;
   stance_bodies_ = stance_bodies;
   // A link the reference lifts is let go only once another held link carries the load
   // the reference puts on its stance bodies (or the reference has none: flight): the
   // figure does not lose all support while its next foot is still in the air.
-  bool other_support = stance_bodies == 0;
+  bool other_support = stance_bodies.none();
   for (int i = 0; i < size_; ++i)
     other_support = other_support || inReferenceStance(links_[static_cast<std::size_t>(i)].body);
   for (int i = 0; i < size_; ++i) {

@@ -514,6 +514,55 @@ TEST(Balance, ASoleRollsOnTheEdgeItsToesPointTo) {
   }
 }
 
+// The mini humanoid with @p extra small bodies on tiny chest joints, written before its
+// legs (bodies are numbered in file order: the soles come after them).
+std::string miniHumanoidWithExtraBodies(int extra) {
+  std::ifstream in(test::testModelPath("mini_humanoid.urdf"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string bodies;
+  for (int k = 0; k < extra; ++k) {
+    const std::string n = std::to_string(k);
+    bodies += "<link name=\"tag_" + n + "\"><inertial><mass value=\"0.001\"/>"
+              "<inertia ixx=\"1e-7\" ixy=\"0\" ixz=\"0\" iyy=\"1e-7\" iyz=\"0\" izz=\"1e-7\"/></inertial></link>"
+              "<joint name=\"tag_" + n + "_joint\" type=\"revolute\"><parent link=\"chest\"/><child link=\"tag_" + n +
+              "\"/><origin xyz=\"0 0 0.3\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint>\n";
+  }
+  const std::size_t at = text.find("  <link name=\"hipz_l\">");
+  text.insert(at, bodies);
+  const std::string path = ::testing::TempDir() + "/mini_humanoid_" + std::to_string(extra) + "_extra.urdf";
+  std::ofstream(path) << text;
+  return path;
+}
+
+// A model with more than 64 bodies (a humanoid with hands has 53-60) has its soles' stance
+// in the schedule wherever they are numbered: here bodies 77 and 86. With 64 bits, bodies
+// past 63 were never in the reference's stance, never lifted soon and always held.
+// More bodies than the set holds are refused with the count.
+TEST(Balance, TheStanceOfBodiesNumberedPast64IsTracked) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(miniHumanoidWithExtraBodies(70)), ModelOptions{});
+  const ModelInfo& info = model->info();
+  BalanceLayer layer(*model, BalanceOptions{});
+  ASSERT_EQ(layer.soleBodies().size(), 2u);
+  ReferenceFrame frame(info.nq, info.nv);
+  frame.q = info.neutralConfiguration();
+  frame.q[info.configurationIndex(info.findJoint("genu_l"))] = 1.0;  // the left foot up
+  frame.q[2] = standingBaseHeight(*model, frame.q);
+  layer.prepare(*model, frame, 1e-3);
+  const int right = info.findBody("sole_r"), left = info.findBody("sole_l");
+  ASSERT_GE(std::min(right, left), 64);
+  EXPECT_TRUE(layer.referenceStance()[static_cast<std::size_t>(right)]) << "the right sole stands";
+  EXPECT_FALSE(layer.referenceStance()[static_cast<std::size_t>(left)]) << "the left sole is up";
+  EXPECT_EQ(layer.referenceStance().count(), 1u);
+
+  auto big = test::makeModel("dart", urdf::loadUrdfFile(miniHumanoidWithExtraBodies(kMaxSetBodies)), ModelOptions{});
+  try {
+    BalanceLayer refused(*big, BalanceOptions{});
+    ADD_FAILURE() << "a model with more bodies than a BodySet holds was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("at most 256 bodies"), std::string::npos) << e.what();
+  }
+}
+
 // A rolling sole turns with the reference's: the figure stands on its right toe edge with
 // its heel 0.2 rad up, the ankle turning at 3 rad/s and speeding up by 20 rad/s², state and
 // reference alike. The sole's rows are then met by the reference's own acceleration: they

@@ -32,6 +32,7 @@
 
 #include <Eigen/Core>
 
+#include "dynfilter/core/body_set.hpp"
 #include "dynfilter/core/contact_qp.hpp"
 #include "dynfilter/core/dynamics_model.hpp"
 #include "dynfilter/core/filter_options.hpp"
@@ -136,17 +137,16 @@ class BalanceLayer {
   int rollSoles(VirtualLinkSet& links) const;
 
   const BalanceState& state() const { return state_; }
-  /// The reference's contact schedule at the last prepare(): bit b set when the reference
-  /// has body b within stance_height_m of the environment and slower than
-  /// stance_speed_mps (bodies ≥ 64 are not tracked).
-  std::uint64_t referenceStance() const { return now_.stance; }
+  /// The reference's contact schedule at the last prepare(): the bodies the reference has
+  /// within stance_height_m of the environment and slower than stance_speed_mps.
+  const BodySet& referenceStance() const { return now_.stance; }
   /// The bodies whose held links the contact schedule keeps (VirtualLinkSet::
   /// applyReferenceSchedule): referenceStance(); or, while the reference has no body in
   /// stance but its centre of mass needs a supporting force (c̈_z + g > 0.3 g: a foot
   /// rolling on its edge or gliding, not a flight), every body — the figure keeps the
   /// contacts it holds instead of letting go of the ground.
-  std::uint64_t heldStance() const {
-    return now_.stance == 0 && needs_support_ ? ~std::uint64_t{0} : now_.stance;
+  BodySet heldStance() const {
+    return now_.stance.none() && needs_support_ ? BodySet().set() : now_.stance;
   }
   /// Bodies kept flat on the ground while in contact (body indices).
   const std::vector<int>& soleBodies() const { return sole_bodies_; }
@@ -168,14 +168,14 @@ class BalanceLayer {
 
  private:
   static constexpr int kMaxSupport = 24;  // hull vertices of one support polygon
-  std::uint64_t lifting_soon_ = 0;  // bodies in stance now that the preview lifts within 0.25 s
+  BodySet lifting_soon_;  // bodies in stance now that the preview lifts within 0.25 s
   struct Sample {
     double t = 0.0;
     Eigen::Vector3d c = Eigen::Vector3d::Zero(), cdot = Eigen::Vector3d::Zero();
     Eigen::Vector3d L = Eigen::Vector3d::Zero();  // angular momentum about c, world axes
     int num_support = 0;
     std::array<Eigen::Vector2d, kMaxSupport> support;  // convex hull, counter-clockwise
-    std::uint64_t stance = 0;  // bodies (< 64) in stance
+    BodySet stance;  // bodies in stance
     // The CoP excess of the segment ending here (prepare's backward pass), and the times of
     // the samples it was computed from (before, segment start, after; NaN: not computed).
     // The excess is a function of those samples alone, so it is reused while they stay.

@@ -26,6 +26,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "dynfilter/core/body_set.hpp"
 #include "dynfilter/core/contact.hpp"
 #include "dynfilter/core/dynamics_model.hpp"
 #include "dynfilter/core/filter_options.hpp"
@@ -156,13 +157,13 @@ class VirtualLinkSet {
   /// reference brings that point back within clearance_m / 2 of where it was held.
   int startLiftoffReleases(const IDynamicsModel& model, double clearance_m);
 
-  /// The reference's contact schedule (QP mode with the balance layer), bit b set when
-  /// the reference has body b in stance (b < 64; higher bodies count as in stance):
-  /// held links of bodies out of stance start their release ramp (and may slide, see
-  /// assemble()); links in stance are not released for a low force alone; a released pair
-  /// whose body the reference holds out of stance does not re-engage on penetration.
+  /// The reference's contact schedule (QP mode with the balance layer), the bodies the
+  /// reference has in stance: held links of bodies out of stance start their release ramp
+  /// (and may slide, see assemble()); links in stance are not released for a low force
+  /// alone; a released pair whose body the reference holds out of stance does not
+  /// re-engage on penetration.
   /// Replaces startLiftoffReleases.
-  void applyReferenceSchedule(std::uint64_t stance_bodies);
+  void applyReferenceSchedule(const BodySet& stance_bodies);
 
   /// Upper bound on link @p i's normal force this tick: +∞, or during a release ramp the
   /// force at the ramp's start decreasing linearly to @p min_force_n over @p transition_s.
@@ -188,9 +189,9 @@ class VirtualLinkSet {
   };
   int findLink(int body, int object) const;
   bool isReleased(int body, int object) const;
-  // The last applied schedule has @p body in stance (bodies ≥ 64 always; none before one is applied).
+  // The last applied schedule has @p body in stance (none before one is applied).
   bool inReferenceStance(int body) const {
-    return schedule_applied_ && (body >= 64 || ((stance_bodies_ >> body) & 1u) != 0);
+    return schedule_applied_ && holds(stance_bodies_, body);
   }
   // Sets link.slide_A from the contact point p_WC, its velocity v_WC and the schedule, and
   // moves a sliding (or stopping) link's anchor origin to the point.
@@ -206,7 +207,7 @@ class VirtualLinkSet {
   std::vector<char> grouped_;  // per candidate, scratch
   bool sliding_enabled_ = false;
   bool schedule_applied_ = false;   // applyReferenceSchedule has run: stance_bodies_ holds
-  std::uint64_t stance_bodies_ = 0;
+  BodySet stance_bodies_;
   Matrix6Xd J_;                // 6 × nv scratch
 };
 
