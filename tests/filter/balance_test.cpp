@@ -402,25 +402,34 @@ TEST(Balance, ASoleLandsFlatOnlyOnceTheReferenceHasItFlat) {
 struct Roll {
   int changed = 0;
   VirtualLink before, after;
+  Eigen::Vector3d toes_B = Eigen::Vector3d::Zero();  // the right sole footprint's x (body frame)
 };
 
-Roll pushOff(double roll_tilt_rad, bool lifts_soon, double reference_ankle_pitch_rad = 0.2) {
-  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+// A figure's names for the push-off: its knees, its right ankle's pitch and its right sole.
+struct PushOffFigure {
+  std::string urdf, left_knee, right_knee, right_ankle_pitch, right_sole;
+};
+
+PushOffFigure humanFigurePushOff() { return {test::humanFigurePath(), "l_knee", "r_knee", "r_ankle_pitch", "r_foot"}; }
+
+Roll pushOff(double roll_tilt_rad, bool lifts_soon, double reference_ankle_pitch_rad = 0.2,
+             const PushOffFigure& figure = humanFigurePushOff()) {
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(figure.urdf), ModelOptions{});
   const ModelInfo& info = model->info();
   BalanceOptions options;
   options.roll_tilt_rad = roll_tilt_rad;
   BalanceLayer layer(*model, options);
   Eigen::VectorXd q = info.neutralConfiguration();
-  q[info.configurationIndex(info.findJoint("l_knee"))] = 1.0;  // left foot up
-  q[2] = standingBaseHeight(*model, q) - 0.001;                // the right sole 1 mm in, flat
+  q[info.configurationIndex(info.findJoint(figure.left_knee))] = 1.0;  // left foot up
+  q[2] = standingBaseHeight(*model, q) - 0.001;                        // the right sole 1 mm in, flat
   ReferenceFrame now(info.nq, info.nv);
   now.q = q;
-  now.q[info.configurationIndex(info.findJoint("r_ankle_pitch"))] = reference_ankle_pitch_rad;  // > 0: heel up
+  now.q[info.configurationIndex(info.findJoint(figure.right_ankle_pitch))] = reference_ankle_pitch_rad;  // heel up
   now.q[2] = standingBaseHeight(*model, now.q);
   ReferenceFrame later = now;
   later.time_s = 0.1;
-  later.q[info.configurationIndex(info.findJoint("r_knee"))] = 1.0;  // the right foot up
-  later.q[info.configurationIndex(info.findJoint("l_knee"))] = 0.0;
+  later.q[info.configurationIndex(info.findJoint(figure.right_knee))] = 1.0;  // the right foot up
+  later.q[info.configurationIndex(info.findJoint(figure.left_knee))] = 0.0;
   later.q[2] = standingBaseHeight(*model, later.q);
   if (lifts_soon) {
     layer.pushPreview(*model, now);
@@ -429,7 +438,9 @@ Roll pushOff(double roll_tilt_rad, bool lifts_soon, double reference_ankle_pitch
   layer.prepare(*model, now, 1e-3);
   VirtualLinkSet links = linksAt(*model, q);
   Roll r;
-  const int foot = info.findBody("r_foot");
+  const int foot = info.findBody(figure.right_sole);
+  for (std::size_t s = 0; s < layer.soleBodies().size(); ++s)
+    if (layer.soleBodies()[s] == foot) r.toes_B = layer.soleFootprints()[s].X_BS.linear().col(0);
   r.before = linkOf(links, foot);
   r.changed = layer.rollSoles(links);
   r.after = linkOf(links, foot);
@@ -479,38 +490,14 @@ TEST(Balance, ASoleRollsOnTheEdgeItsToesPointTo) {
         text.replace(at, forward.size(), backward);
     const std::string path = ::testing::TempDir() + "/mini_humanoid_toes.urdf";
     std::ofstream(path) << text;
-    auto model = test::makeModel("dart", urdf::loadUrdfFile(path), ModelOptions{});
-    const ModelInfo& info = model->info();
-    BalanceLayer layer(*model, BalanceOptions{});
-    ASSERT_EQ(layer.soleBodies().size(), 2u);
-    for (const BalanceLayer::SoleFootprint& f : layer.soleFootprints())
-      EXPECT_NEAR(f.X_BS.linear().col(0).x(), toes, 1e-9) << "the footprint's x points to the toes";
-
-    Eigen::VectorXd q = info.neutralConfiguration();
-    q[info.configurationIndex(info.findJoint("genu_l"))] = 1.0;  // left foot up
-    q[2] = standingBaseHeight(*model, q) - 0.001;                // the right sole 1 mm in, flat
-    ReferenceFrame now(info.nq, info.nv);
-    now.q = q;
-    now.q[info.configurationIndex(info.findJoint("talo_r_y"))] = 0.2 * toes;  // heel up
-    now.q[2] = standingBaseHeight(*model, now.q);
-    ReferenceFrame later = now;
-    later.time_s = 0.1;
-    later.q[info.configurationIndex(info.findJoint("genu_r"))] = 1.0;  // the right foot up
-    later.q[info.configurationIndex(info.findJoint("genu_l"))] = 0.0;
-    later.q[2] = standingBaseHeight(*model, later.q);
-    layer.pushPreview(*model, now);
-    layer.pushPreview(*model, later);
-    layer.prepare(*model, now, 1e-3);
-    VirtualLinkSet links = linksAt(*model, q);
-    const int foot = info.findBody("sole_r");
-    const VirtualLink before = linkOf(links, foot);
-    ASSERT_EQ(before.kind, ContactKind::kFace) << "the flat sole holds a face";
-    EXPECT_EQ(layer.rollSoles(links), 1);
-    const VirtualLink after = linkOf(links, foot);
-    EXPECT_EQ(after.kind, ContactKind::kEdge);
-    EXPECT_TRUE(after.rolling);
+    const Roll r = pushOff(0.1, true, 0.2 * toes, {path, "genu_l", "genu_r", "talo_r_y", "sole_r"});
+    EXPECT_NEAR(r.toes_B.x(), toes, 1e-9) << "the footprint's x points to the toes";
+    ASSERT_EQ(r.before.kind, ContactKind::kFace) << "the flat sole holds a face";
+    EXPECT_EQ(r.changed, 1);
+    EXPECT_EQ(r.after.kind, ContactKind::kEdge);
+    EXPECT_TRUE(r.after.rolling);
     // The edge lies across the sole at its toes' end: 9 cm from the middle of an 18 cm sole.
-    EXPECT_NEAR((after.X_BC.translation() - before.X_BC.translation()).x(), 0.09 * toes, 1e-6);
+    EXPECT_NEAR((r.after.X_BC.translation() - r.before.X_BC.translation()).x(), 0.09 * toes, 1e-6);
   }
 }
 
