@@ -399,6 +399,13 @@ TEST(Balance, ASoleLandsFlatOnlyOnceTheReferenceHasItFlat) {
 // Rolling soles: the filter's right sole stands flat (a face link); the reference has the
 // same sole on its toes, heel 0.2 rad up, and lifts it 0.1 s later (push-off). The face
 // becomes an edge link along the toe edge, marked rolling, so the sole can hinge there.
+// @p text with every @p from replaced by @p to.
+std::string replacedAll(std::string text, const std::string& from, const std::string& to) {
+  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()))
+    text.replace(at, from.size(), to);
+  return text;
+}
+
 struct Roll {
   int changed = 0;
   VirtualLink before, after;
@@ -479,17 +486,14 @@ TEST(Balance, ASoleKeepsItsFaceWhenTheReferenceDoesNotLiftItOrRollingIsOff) {
 // of their links (as on a robot that faces −x of its base) rolls onto its −x edge when the
 // reference raises that heel; with the link frame's x taken for the toes it was flattened.
 TEST(Balance, ASoleRollsOnTheEdgeItsToesPointTo) {
-  std::ifstream in(test::testModelPath("mini_humanoid.urdf"));
-  const std::string original((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   for (const double toes : {1.0, -1.0}) {
     SCOPED_TRACE(toes > 0 ? "toes along +x" : "toes along -x");
-    std::string text = original;
-    const std::string forward = R"(<origin xyz="0.03 0 -0.04"/>)", backward = R"(<origin xyz="-0.03 0 -0.04"/>)";
-    if (toes < 0)
-      for (std::size_t at = text.find(forward); at != std::string::npos; at = text.find(forward, at))
-        text.replace(at, forward.size(), backward);
-    const std::string path = ::testing::TempDir() + "/mini_humanoid_toes.urdf";
-    std::ofstream(path) << text;
+    const std::string path = test::editedTestModel(
+        "mini_humanoid.urdf",
+        [toes](const std::string& text) {
+          return toes > 0 ? text : replacedAll(text, R"(<origin xyz="0.03 0 -0.04"/>)", R"(<origin xyz="-0.03 0 -0.04"/>)");
+        },
+        "mini_humanoid_toes.urdf");
     const Roll r = pushOff(0.1, true, 0.2 * toes, {path, "genu_l", "genu_r", "talo_r_y", "sole_r"});
     EXPECT_NEAR(r.toes_B.x(), toes, 1e-9) << "the footprint's x points to the toes";
     ASSERT_EQ(r.before.kind, ContactKind::kFace) << "the flat sole holds a face";
@@ -504,8 +508,6 @@ TEST(Balance, ASoleRollsOnTheEdgeItsToesPointTo) {
 // The mini humanoid with @p extra small bodies on tiny chest joints, written before its
 // legs (bodies are numbered in file order: the soles come after them).
 std::string miniHumanoidWithExtraBodies(int extra) {
-  std::ifstream in(test::testModelPath("mini_humanoid.urdf"));
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   std::string bodies;
   for (int k = 0; k < extra; ++k) {
     const std::string n = std::to_string(k);
@@ -514,11 +516,10 @@ std::string miniHumanoidWithExtraBodies(int extra) {
               "<joint name=\"tag_" + n + "_joint\" type=\"revolute\"><parent link=\"chest\"/><child link=\"tag_" + n +
               "\"/><origin xyz=\"0 0 0.3\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint>\n";
   }
-  const std::size_t at = text.find("  <link name=\"hipz_l\">");
-  text.insert(at, bodies);
-  const std::string path = ::testing::TempDir() + "/mini_humanoid_" + std::to_string(extra) + "_extra.urdf";
-  std::ofstream(path) << text;
-  return path;
+  return test::editedTestModel(
+      "mini_humanoid.urdf",
+      [&bodies](std::string text) { return text.insert(text.find("  <link name=\"hipz_l\">"), bodies); },
+      "mini_humanoid_" + std::to_string(extra) + "_extra.urdf");
 }
 
 // A model with more than 64 bodies (a humanoid with hands has 53-60) has its soles' stance
@@ -599,14 +600,13 @@ TEST(Balance, ARollingSolesRowsAreMetByTheReferencesOwnRoll) {
 // whose top vertices come first (found from the whole figure sunk into the ground, that
 // plate's footprint was its top face, and every landing sank the sole by its thickness).
 TEST(Balance, SoleFootprintsLieOnTheSolesLowestPoints) {
-  std::ifstream in(test::testModelPath("mini_humanoid.urdf"));
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string box = R"(<geometry><box size="0.18 0.08 0.02"/></geometry>)";
-  for (std::size_t at = text.find(box); at != std::string::npos; at = text.find(box, at))
-    text.replace(at, box.size(),
-                 R"(<geometry><mesh filename="package://dynfilter_test_meshes/meshes/thin_plate_sole.obj"/></geometry>)");
-  const std::string plate_path = ::testing::TempDir() + "/mini_humanoid_plate_soles.urdf";
-  std::ofstream(plate_path) << text;
+  const std::string plate_path = test::editedTestModel(
+      "mini_humanoid.urdf",
+      [](const std::string& text) {
+        return replacedAll(text, R"(<geometry><box size="0.18 0.08 0.02"/></geometry>)",
+                           R"(<geometry><mesh filename="package://dynfilter_test_meshes/meshes/thin_plate_sole.obj"/></geometry>)");
+      },
+      "mini_humanoid_plate_soles.urdf");
   const std::vector<std::string> urdfs = {test::testModelPath("mini_humanoid.urdf"),
                                           test::testModelPath("mesh_sole_biped.urdf"), plate_path};
   for (const std::string& path : urdfs)

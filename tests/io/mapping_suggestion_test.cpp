@@ -94,11 +94,8 @@ TEST(MappingSuggestion, TheMiniHumanoidsOwnCaptureIsMatchedByStructure) {
 // The mini humanoid's URDF rewritten by @p edit, written to a temporary file and loaded.
 std::unique_ptr<IDynamicsModel> editedMiniHumanoid(const std::function<std::string(std::string)>& edit,
                                                    const char* name) {
-  std::ifstream in(test::testModelPath("mini_humanoid.urdf"));
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string path = ::testing::TempDir() + "/" + name;
-  std::ofstream(path) << edit(text);
-  return test::makeModel("dart", urdf::loadUrdfFile(path), ModelOptions{});
+  return test::makeModel("dart", urdf::loadUrdfFile(test::editedTestModel("mini_humanoid.urdf", edit, name)),
+                         ModelOptions{});
 }
 
 // A robot whose base frame's +x points backwards (as iCub's does): everything hanging from

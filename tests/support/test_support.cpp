@@ -23,6 +23,15 @@ std::string sourcePath(const std::string& relative) {
 std::string testModelPath(const std::string& name) { return sourcePath("tests/models/" + name); }
 std::string humanFigurePath() { return sourcePath("models/human_figure.urdf"); }
 
+std::string editedTestModel(const std::string& name, const std::function<std::string(std::string)>& edit,
+                            const std::string& out_name) {
+  std::ifstream in(testModelPath(name));
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string path = testing::TempDir() + "/" + out_name;
+  std::ofstream(path) << edit(text);
+  return path;
+}
+
 ProgramRun runProgram(const std::string& binary, const std::string& args) {
   const std::string log = testing::TempDir() + "/program_output_" + std::to_string(getpid()) + ".txt";
   const int status = std::system((binary + " " + args + " > " + log + " 2>&1").c_str());

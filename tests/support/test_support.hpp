@@ -2,6 +2,7 @@
 // Helpers for the test suites. The reference computations here are written from the
 // URDF description and first principles, independent of any backend's dynamics code.
 
+#include <functional>
 #include <memory>
 #include <random>
 #include <string>
@@ -23,6 +24,9 @@ std::string sourcePath(const std::string& relative);
 std::string testModelPath(const std::string& name);
 /// models/human_figure.urdf
 std::string humanFigurePath();
+/// tests/models/<name> rewritten by @p edit into <TempDir>/<out_name>; returns that path.
+std::string editedTestModel(const std::string& name, const std::function<std::string(std::string)>& edit,
+                            const std::string& out_name);
 
 /// How a program ran: its exit code (−1 when it did not exit normally) and what it printed.
 struct ProgramRun {
