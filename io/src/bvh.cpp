@@ -412,7 +412,7 @@ class Reader {
     } else if (values.rows() >= 2 && options_.detect_t_pose) {
       if (rotationRms(values.row(0)) <= kBvhRestPoseRmsDeg &&
           largestRotationStep(values.row(0), values.row(1)) >= kBvhRestPoseJumpDeg)
-        skip = 1;
+        skip = 1 + blendFrames(values, frame_time);
     }
     motion_.skipped_frames = skip;
     motion_.frames = values.bottomRows(values.rows() - skip);
@@ -431,6 +431,27 @@ class Reader {
           ++n;
         }
     return n > 0 ? std::sqrt(sum / n) : 0.0;
+  }
+
+  // Frames after a rest pose (frame 0) that a conversion blends from it into the motion:
+  // from frame 1 on, each frame whose step to the next (largestRotationStep) exceeds
+  // kBvhBlendStepFactor × the clip's median step, within kBvhBlendMaxS of frame 1. At
+  // least two frames stay.
+  template <typename Values>
+  int blendFrames(const Values& values, double frame_time) const {
+    const Eigen::Index n = values.rows();
+    if (n < 4) return 0;
+    std::vector<double> steps(static_cast<std::size_t>(n - 1));
+    for (Eigen::Index k = 0; k + 1 < n; ++k)
+      steps[static_cast<std::size_t>(k)] = largestRotationStep(values.row(k), values.row(k + 1));
+    std::vector<double> sorted(steps.begin() + 1, steps.end());
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    const double threshold = kBvhBlendStepFactor * sorted[sorted.size() / 2];
+    const Eigen::Index cap = static_cast<Eigen::Index>(
+        std::min(static_cast<double>(n - 3), std::floor(kBvhBlendMaxS / frame_time + 1e-9)));
+    Eigen::Index blend = 0;
+    while (blend < cap && steps[static_cast<std::size_t>(1 + blend)] > threshold) ++blend;
+    return static_cast<int>(blend);
   }
 
   // Largest change of a rotation channel from frame a to frame b, degrees, the shorter

@@ -531,7 +531,10 @@ MappingSuggestion suggestMapping(const BvhMotion& bvh, IDynamicsModel& model, in
   char scale[32];
   std::snprintf(scale, sizeof scale, "%.17g", b.length_scale);
   y << "length_scale: " << scale << "\n";
-  y << "skip_frames: " << bvh_skipped_frames << (bvh_skipped_frames > 0 ? "   # a rest pose (T-pose) before the motion\n" : "\n");
+  y << "skip_frames: " << bvh_skipped_frames
+    << (bvh_skipped_frames > 1   ? "   # a rest pose (T-pose) before the motion, and the frames blending from it\n"
+        : bvh_skipped_frames > 0 ? "   # a rest pose (T-pose) before the motion\n"
+                                 : "\n");
   // bvh_forward is the BVH axis that becomes the model's +x: the capture's forward turned
   // as the model's forward is turned from +x.
   const Eigen::Vector3d bvh_left = b.up_axis.cross(b.forward_axis);

@@ -212,11 +212,15 @@ TEST(BvhClips, TPoseDetection) {
 
   // 10_01: frame 0 is a T-pose too (root rotation 0, left/right mirror-symmetric angles,
   // hands 1.24 m apart at 1.34 m), although the README lists it for 01_01 only; the
-  // DAZ-friendly conversion then blends into the captured stance over frames 1-4, which
-  // stay in the motion.
+  // DAZ-friendly conversion then blends into the captured stance over frames 1-4 (steps of
+  // 23, 20, 14 and 5.5 degrees to the next frame, against a median of 0.62 over the clip),
+  // which go too: frame 5 is the first of the motion, as in its hand-written mapping. The
+  // jumps' frame 1 (a step of 1.1 degrees; median 1.9) is already the motion.
+  const BvhMotion kick_all = readBvh(clipPath(kKick));
   const BvhMotion kick = readBvh(clipPath(kKick), detect);
-  EXPECT_EQ(kick.skipped_frames, 1);
-  EXPECT_EQ(kick.frameCount(), 801);
+  EXPECT_EQ(kick.skipped_frames, 5);
+  EXPECT_EQ(kick.frameCount(), 797);
+  EXPECT_EQ(kick.frames, kick_all.frames.bottomRows(kick_all.frameCount() - 5));
 
   // skip_first_frame drops frame 0 whatever it is, once.
   BvhReadOptions skip;
@@ -226,6 +230,48 @@ TEST(BvhClips, TPoseDetection) {
   EXPECT_EQ(walk_skipped.skipped_frames, 1);
   EXPECT_EQ(walk_skipped.frameCount(), 993);
   EXPECT_EQ(readBvh(clipPath(kJumps), skip).frameCount(), 2751);
+}
+
+// A root and one joint: frame 0 with the joint at `start` degrees (0: at rest), `blend`
+// frames moving it by 20 degrees a frame, then `rest` frames moving it by `slow` degrees a
+// frame; frame time 0.01 s.
+std::string blendClip(int blend, int rest, double slow, double start = 0.0) {
+  std::string text =
+      "HIERARCHY\nROOT hip\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition "
+      "Zrotation Yrotation Xrotation\n  JOINT knee\n  {\n    OFFSET 0 -40 0\n    CHANNELS 3 "
+      "Zrotation Yrotation Xrotation\n    End Site\n    {\n      OFFSET 0 -40 0\n    }\n  }\n}\n"
+      "MOTION\nFrames: " + std::to_string(1 + blend + rest) + "\nFrame Time: 0.01\n";
+  double angle = start;
+  for (int k = 0; k <= blend + rest; ++k) {
+    if (k > 0) angle += k <= blend ? 20.0 : slow;
+    text += "0 90 0 0 0 0 0 0 " + std::to_string(std::fmod(angle + 180.0, 360.0) - 180.0) + "\n";
+  }
+  return text;
+}
+
+TEST(BvhReader, TheBlendFromARestPoseIntoTheMotionIsDroppedWithIt) {
+  BvhReadOptions detect;
+  detect.detect_t_pose = true;
+  auto read = [&](int blend, int rest, double slow, double start = 0.0) {
+    const std::string path = ::testing::TempDir() + "/blend.bvh";
+    std::ofstream(path) << blendClip(blend, rest, slow, start);
+    return readBvh(path, detect);
+  };
+  // Four frames of 20 degrees, then 0.5 a frame: frame 0 and the three frames whose step
+  // to the next is 20 go; frame 4, the blend's end, is the first kept.
+  const BvhMotion blended = read(4, 40, 0.5);
+  EXPECT_EQ(blended.skipped_frames, 4);
+  EXPECT_EQ(blended.frameCount(), 41);
+  EXPECT_DOUBLE_EQ(blended.frames(0, 8), 80.0);
+  // A motion as fast as the blend all along: only the rest pose goes.
+  EXPECT_EQ(read(4, 40, 20.0).skipped_frames, 1);
+  // No step above 3x the median (1.5 degrees against 0.5): nothing beyond the rest pose.
+  EXPECT_EQ(read(1, 40, 0.5).skipped_frames, 1);
+  // A blend longer than kBvhBlendMaxS (0.25 s = 25 frames) stops there.
+  EXPECT_EQ(read(40, 100, 0.5).skipped_frames, 26);
+  // Without a rest pose in front (frame 0's joint at 30 degrees: RMS 12 over the six
+  // rotation channels) nothing goes, however fast the first frames.
+  EXPECT_EQ(read(4, 40, 0.5, 30.0).skipped_frames, 0);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -78,7 +78,7 @@ struct BvhMotion {
   double frame_time_s = 0.0;      ///< "Frame Time:", > 0
   Eigen::MatrixXd frames;         ///< frames × channels, columns as in the file; position
                                   ///< channels × length_scale, rotations in degrees
-  int skipped_frames = 0;         ///< leading frames of the file not in frames (0 or 1)
+  int skipped_frames = 0;         ///< leading frames of the file not in frames
 
   int frameCount() const { return static_cast<int>(frames.rows()); }
   int channelCount() const { return static_cast<int>(frames.cols()); }
@@ -100,8 +100,10 @@ struct BvhReadOptions {
   /// their T-pose) while frame 1 is not at rest but already in the captured motion (some
   /// rotation channel differs from frame 0 by at least kBvhRestPoseJumpDeg, a step no
   /// captured joint makes in one frame). Needs ≥ 2 frames; nothing more is dropped when
-  /// skip_first_frame already drops the frame. Frames after frame 0 are never dropped,
-  /// even when a conversion blends from its T-pose into the motion over a few frames.
+  /// skip_first_frame already drops the frame. After a rest pose so dropped, the frames a
+  /// conversion blends from it into the motion go too: from frame 1 on, each frame whose
+  /// largest rotation step to the next exceeds kBvhBlendStepFactor × the clip's median
+  /// step, within kBvhBlendMaxS (CMU's DAZ-friendly conversions blend over 4 frames).
   bool detect_t_pose = false;
 
   /// Throws std::invalid_argument on a length_scale that is not finite and positive.
@@ -114,6 +116,11 @@ inline constexpr double kBvhRestPoseRmsDeg = 5.0;
 /// detect_t_pose: smallest change (degrees, the shorter way round) of some rotation
 /// channel from frame 0 to frame 1 for frame 0 to count as put in front of the motion.
 inline constexpr double kBvhRestPoseJumpDeg = 10.0;
+/// detect_t_pose: a frame after the rest pose is part of the blend into the motion while
+/// its step to the next frame exceeds this many times the clip's median step.
+inline constexpr double kBvhBlendStepFactor = 3.0;
+/// detect_t_pose: the blend into the motion ends within this time of frame 1 (s).
+inline constexpr double kBvhBlendMaxS = 0.25;
 
 /// Reads a BVH file.
 ///
