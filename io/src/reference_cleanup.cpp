@@ -34,6 +34,14 @@ constexpr double kMaxFlatStanceTiltRad = 0.35;
 // A flat stance sole rolls over its toe or heel edge only where the reference's sole
 // pitches by more than this from the run's level (rad): heel-off, not the capture's jitter.
 constexpr double kRollDeadbandRad = 0.05;
+// A leg of fewer joints than this cannot orient its sole freely (no ankle roll, say).
+constexpr int kFreeSoleJoints = 6;
+// The body's weight (1/m, 1/rad) while such a leg's stance pose is solved: held where the
+// reference has it, the leg alone reaches for the flat pose.
+constexpr double kHeldBodyWeight = 100.0;
+// The flat pose counts as reached within these (m, rad).
+constexpr double kReachedPositionM = 1e-3;
+constexpr double kReachedTiltRad = 0.01;
 
 // A foot: its body and sole points (body frame) from the neutral stance.
 struct Foot {
@@ -370,6 +378,50 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
     X.translation() -= h * normal;
     return X;
   };
+  // Posture weights: legs (joints between the base and a foot) give way.
+  const KinematicTree tree = kinematicTreeOf(model);
+  Eigen::VectorXd weights = Eigen::VectorXd::Constant(info.nv, options.posture_weight);
+  weights.head<6>().setConstant(options.base_weight);
+  std::vector<int> leg_joints(static_cast<std::size_t>(nf), 0);
+  for (int i = 0; i < nf; ++i)
+    for (const int j : tree.jointsBetween(tree.base_body, setup.feet[static_cast<std::size_t>(i)].body)) {
+      weights[info.velocityIndex(j)] = options.leg_weight;
+      ++leg_joints[static_cast<std::size_t>(i)];
+    }
+  // A stance pose of a leg that cannot orient its sole freely: the pose nearest the flat one
+  // p (sole centre on it, turned least) that the leg reaches with the body held at the
+  // reference's frame k; p itself where the leg reaches it.
+  std::vector<int> tilted_runs(static_cast<std::size_t>(nf), 0);
+  std::vector<double> tilt_max(static_cast<std::size_t>(nf), 0.0);
+  auto reachedPose = [&](int i, const Eigen::Isometry3d& P, int k) {
+    const Foot& f = setup.feet[static_cast<std::size_t>(i)];
+    if (leg_joints[static_cast<std::size_t>(i)] >= kFreeSoleJoints) return P;
+    Eigen::VectorXd held = weights;
+    held.head<6>().setConstant(kHeldBodyWeight);
+    IkTarget t;
+    t.body = f.body;
+    t.p_BP = f.centre;
+    t.p_WP = P * f.centre;
+    t.R_WB = P.linear();
+    t.position_weight = kFootPositionWeight;
+    t.orientation_weight = kFootOrientationWeight;
+    IkOptions o;
+    o.max_iterations = 100;
+    o.tolerance = 1e-9;
+    const Eigen::VectorXd& q_k = motion.frames[static_cast<std::size_t>(k)].q;
+    Eigen::VectorXd q = q_k;
+    solvePoseIk(model, {t}, q_k, held, o, q);
+    double position_m = 0.0, tilt_rad = 0.0;
+    ikTargetError(model, t, position_m, tilt_rad);
+    if (position_m <= kReachedPositionM && tilt_rad <= kReachedTiltRad) return P;
+    Eigen::Isometry3d X = model.bodyPose(f.body);
+    double h = std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X * p));
+    X.translation() -= h * normal;
+    ++tilted_runs[static_cast<std::size_t>(i)];
+    tilt_max[static_cast<std::size_t>(i)] = std::max(tilt_max[static_cast<std::size_t>(i)], tilt_rad);
+    return X;
+  };
   std::vector<std::vector<Eigen::Isometry3d>> X_goal = X_ref;
   for (int i = 0; i < nf; ++i) {
     const Foot& f = setup.feet[static_cast<std::size_t>(i)];
@@ -448,7 +500,7 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
         // Mean heading: the flat pose of the mean forward direction.
         const Eigen::Vector3d x0 = f.R_flat * Eigen::Vector3d::UnitX();
         const Eigen::Matrix3d R_heading = Eigen::Quaterniond::FromTwoVectors(x0, xs.normalized()).toRotationMatrix();
-        pose[r] = flatPose(f, R_heading * f.R_flat, c);
+        pose[r] = reachedPose(i, flatPose(f, R_heading * f.R_flat, c), (b + e) / 2);
       }
       roll_from[r] = e;
       if (tilt <= kMaxFlatStanceTiltRad) {
@@ -495,13 +547,6 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
       goal[static_cast<std::size_t>(k)] = X;
     }
   }
-
-  // Posture weights: legs (joints between the base and a foot) give way.
-  const KinematicTree tree = kinematicTreeOf(model);
-  Eigen::VectorXd weights = Eigen::VectorXd::Constant(info.nv, options.posture_weight);
-  weights.head<6>().setConstant(options.base_weight);
-  for (const Foot& f : setup.feet)
-    for (const int j : tree.jointsBetween(tree.base_body, f.body)) weights[info.velocityIndex(j)] = options.leg_weight;
 
   std::vector<IkTarget> targets(static_cast<std::size_t>(nf));
   for (int i = 0; i < nf; ++i) {
@@ -669,6 +714,8 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
   for (std::size_t i = 0; i < rep.feet.size(); ++i) {
     rep.feet[i].skate_after_m = after[i].skate_before_m;
     rep.feet[i].penetration_after_m = after[i].penetration_before_m;
+    rep.feet[i].tilted_runs = tilted_runs[i];
+    rep.feet[i].tilt_max_rad = tilt_max[i];
   }
   limitSummary(info, input.frames, rep.joints_outside_before, rep.limit_excess_rms_before_rad);
   limitSummary(info, result.motion.frames, rep.joints_outside_after, rep.limit_excess_rms_after_rad);
@@ -713,6 +760,13 @@ std::string formatCleanupReport(const CleanupReport& report) {
                   f.link.c_str(), f.stance_runs, 100.0 * f.stance_fraction, 1e3 * f.skate_before_m,
                   1e3 * f.skate_after_m, 1e3 * f.penetration_before_m, 1e3 * f.penetration_after_m);
     out << line;
+    if (f.tilted_runs > 0) {
+      std::snprintf(line, sizeof line,
+                    "  foot %-22s %2d stance runs held at the tilt its leg reaches (up to %.1f deg): "
+                    "fewer than %d joints cannot lay the sole flat there\n",
+                    f.link.c_str(), f.tilted_runs, f.tilt_max_rad * 180.0 / M_PI, kFreeSoleJoints);
+      out << line;
+    }
   }
   std::snprintf(line, sizeof line,
                 "  ZMP outside the stance support: %d -> %d frames, max %.1f -> %.1f mm, RMS %.1f -> %.1f mm; "

@@ -557,6 +557,7 @@ TEST(ReferenceCleanup, ShippedClipsHaveStillFeetAndNoJumps) {
     const CleanupResult r = cleanupReference(clip.result.motion, *model, clip.mapping.cleanup, proxqp::factory());
     for (const FootReport& f : r.report.feet) {
       EXPECT_GT(f.stance_runs, 0) << f.link;
+      EXPECT_EQ(f.tilted_runs, 0) << f.link << ": a six-joint leg lays its sole flat";
       // Measured: at most 1.4 mm (the jump's left foot) since the clean-up low-passes its
       // answer and solves again; the target is 5 mm per stance.
       EXPECT_LT(f.skate_after_m, 2e-3) << f.link;
@@ -593,6 +594,43 @@ TEST(ReferenceCleanup, ShippedClipsHaveStillFeetAndNoJumps) {
       EXPECT_LT(largestStep(r.motion.frames, qi), largestStep(raw, qi) + 0.4) << info.joint_names[static_cast<std::size_t>(j)];
     }
   }
+}
+
+// A leg of five joints (the figure's ankle rolls welded, as on robots without one) cannot
+// lay its sole flat where the capture's slanted leg puts it. Flat stance poses made the
+// clean-up buy the missing roll with the body: on the walk's first 2.5 s the pelvis turned
+// by up to 0.41 rad from the reference's. The pose the leg reaches with the body held keeps
+// the pelvis nearer and the feet still.
+TEST(ReferenceCleanup, AFiveJointLegKeepsTheTiltItReachesInsteadOfBendingTheBody) {
+  urdf::UrdfLoadOptions lock;
+  lock.lock_joints = {"l_ankle_roll", "r_ankle_roll"};
+  auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath(), lock), ModelOptions{});
+  Retargeted clip = retargetClip(kClips[0], *model);
+  auto& frames = clip.result.motion.frames;
+  frames.resize(std::min<std::size_t>(frames.size(), 300));  // 2.5 s at 120 Hz
+  ReferenceCleanupOptions options = clip.mapping.cleanup;
+  options.balance = false;  // the feet's stage alone (the balance stage moves the base on purpose)
+  const CleanupResult r = cleanupReference(clip.result.motion, *model, options, proxqp::factory());
+  double moved_m = 0.0, turned_rad = 0.0;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const Eigen::VectorXd& a = frames[k].q;
+    const Eigen::VectorXd& b = r.motion.frames[k].q;
+    moved_m = std::max(moved_m, (b.head<3>() - a.head<3>()).norm());
+    const Eigen::Quaterniond qa(a[3], a[4], a[5], a[6]), qb(b[3], b[4], b[5], b[6]);
+    turned_rad = std::max(turned_rad, qa.angularDistance(qb));
+  }
+  // Measured: 0.31 m and 0.20 rad (flat poses: 0.32 m and 0.41 rad). The translation is
+  // the six-joint figure's too (0.2 m where a stance leg is at its reach).
+  EXPECT_LT(moved_m, 0.4);
+  EXPECT_LT(turned_rad, 0.3);
+  int tilted = 0;
+  for (const FootReport& f : r.report.feet) {
+    tilted += f.tilted_runs;
+    EXPECT_LT(f.tilt_max_rad, 0.35) << f.link;
+    EXPECT_LT(f.skate_after_m, 5e-3) << f.link;
+    EXPECT_LT(f.penetration_after_m, 4e-3) << f.link;
+  }
+  EXPECT_GT(tilted, 0) << "the capture's feet are narrower than the hips: some stance is not flat";
 }
 
 }  // namespace

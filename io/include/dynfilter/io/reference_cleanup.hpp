@@ -114,6 +114,12 @@ struct FootReport {
   double stance_fraction = 0.0;
   double skate_before_m = 0.0, skate_after_m = 0.0;  ///< worst over stance runs
   double penetration_before_m = 0.0, penetration_after_m = 0.0;  ///< worst sole point, ≥ 0
+  /// Stance runs held at the tilt the leg reaches instead of flat: a leg of fewer than six
+  /// joints cannot orient its sole freely, and a flat sole it cannot reach with the body as
+  /// the reference holds it would be bought by moving the body (turning the pelvis, bending
+  /// the other leg). The largest tilt from flat of those runs' poses (rad).
+  int tilted_runs = 0;
+  double tilt_max_rad = 0.0;
 };
 
 struct CleanupReport {
