@@ -411,10 +411,12 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
     const Eigen::VectorXd& q_k = motion.frames[static_cast<std::size_t>(k)].q;
     Eigen::VectorXd q = q_k;
     solvePoseIk(model, {t}, q_k, held, o, q);
-    double position_m = 0.0, tilt_rad = 0.0;
-    ikTargetError(model, t, position_m, tilt_rad);
-    if (position_m <= kReachedPositionM && tilt_rad <= kReachedTiltRad) return P;
+    double position_m = 0.0, turn_rad = 0.0;
+    ikTargetError(model, t, position_m, turn_rad);
+    if (position_m <= kReachedPositionM && turn_rad <= kReachedTiltRad) return P;
     Eigen::Isometry3d X = model.bodyPose(f.body);
+    const Eigen::Vector3d n_W = X.linear() * f.R_flat.transpose() * normal;
+    const double tilt_rad = std::acos(std::clamp(n_W.dot(normal), -1.0, 1.0));
     double h = std::numeric_limits<double>::infinity();
     for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X * p));
     X.translation() -= h * normal;
