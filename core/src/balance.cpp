@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/core/lie_group.hpp"
 #include "dynfilter/core/model_sampling.hpp"
 #include "dynfilter/core/polygon.hpp"
@@ -19,6 +20,7 @@ using polygon::convexHull;
 constexpr double kMinHeight = 0.2;  // m: the LIPM height never below this
 constexpr double kInfeasibleAfterS = 0.25;  // s the reference must look infeasible
 constexpr double kReferenceFlatRad = 0.1;  // a reference sole this close to its surface is flat
+constexpr std::size_t kFreeSoleJoints = 6;  // fewer joints from the base cannot orient a sole freely
 constexpr double kRollLookaheadS = 0.25;   // a face rolls only when the reference lifts it this soon
 
 // Poses @p model at rest in its neutral configuration standing on the ground plane, turned
@@ -117,6 +119,9 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
     model.setState(q_saved, v_saved);
   }
   for (SoleOptions& sole : soles_) sole.n_B.normalize();
+  const KinematicTree tree = kinematicTreeOf(model);
+  for (const int body : sole_bodies_)
+    sole_free_.push_back(tree.jointsBetween(tree.base_body, body).size() >= kFreeSoleJoints ? 1 : 0);
   sole_refs_.resize(soles_.size());
   footprints_.resize(soles_.size());
   if (model.environment().has_ground && !soles_.empty()) {
@@ -186,7 +191,7 @@ int BalanceLayer::flattenLandings(const IDynamicsModel& model, VirtualLinkSet& l
     if (it == sole_bodies_.end()) continue;
     const std::size_t s = static_cast<std::size_t>(it - sole_bodies_.begin());
     const SoleFootprint& f = footprints_[s];
-    if (!f.valid) continue;
+    if (!f.valid || !sole_free_[s]) continue;
     const Eigen::Isometry3d X_WS = model.bodyPose(link.body) * f.X_BS;
     const Eigen::Vector3d n = link.X_WA.linear().col(2);  // the surface's normal
     const double tilt = std::acos(std::clamp(X_WS.linear().col(2).dot(n), -1.0, 1.0));

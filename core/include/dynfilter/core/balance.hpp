@@ -123,7 +123,9 @@ class BalanceLayer {
   /// link over its whole sole instead (its footprint at the neutral configuration),
   /// anchored flat on the surface so that the touching point stays where it is, once the
   /// reference (at the last prepare()) has that sole within 0.1 rad of the surface. The
-  /// link's stabilisation brings the sole down. Returns the links changed. No allocation.
+  /// link's stabilisation brings the sole down. Not for a sole whose leg has fewer than six
+  /// joints (no ankle roll): it cannot lay its sole flat wherever it lands, and the face
+  /// link's rows would ask the rest of the body to. Returns the links changed. No allocation.
   int flattenLandings(const IDynamicsModel& model, VirtualLinkSet& links) const;
 
   /// Rolling soles (BalanceOptions::roll_tilt_rad): where the reference (at the last
@@ -213,6 +215,7 @@ class BalanceLayer {
   double mass_kg_ = 0.0;
   const Environment* environment_ = nullptr;  // the model's, from the last prepare()
   std::vector<int> sole_bodies_;
+  std::vector<char> sole_free_;  // per sole: its leg (base to sole) has six joints or more
   std::vector<SoleOptions> soles_;
   std::vector<SoleReference> sole_refs_;
   std::vector<SoleFootprint> footprints_;

@@ -177,6 +177,7 @@ struct BalanceOptions {
   /// Flat landing: a sole that touches down on a corner or an edge tilted by at most this
   /// (rad) holds a face link over its whole sole at once, anchored flat on the surface
   /// about the touching point; the link's stabilisation brings the sole down flat. 0: off.
+  /// Never for a sole whose leg has fewer than six joints (it cannot lay the sole flat).
   double flat_landing_max_tilt_rad = 0.5;
   /// Rolling soles (heel-off, push-off): while the reference has a sole on its toes, tilted
   /// from its surface by more than this (rad), and lifts it within 0.25 s, a held face link
