@@ -20,7 +20,6 @@ using polygon::convexHull;
 constexpr double kMinHeight = 0.2;  // m: the LIPM height never below this
 constexpr double kInfeasibleAfterS = 0.25;  // s the reference must look infeasible
 constexpr double kReferenceFlatRad = 0.1;  // a reference sole this close to its surface is flat
-constexpr std::size_t kFreeSoleJoints = 6;  // fewer joints from the base cannot orient a sole freely
 constexpr double kRollLookaheadS = 0.25;   // a face rolls only when the reference lifts it this soon
 
 // Poses @p model at rest in its neutral configuration standing on the ground plane, turned
@@ -121,7 +120,7 @@ BalanceLayer::BalanceLayer(IDynamicsModel& model, const BalanceOptions& options)
   for (SoleOptions& sole : soles_) sole.n_B.normalize();
   const KinematicTree tree = kinematicTreeOf(model);
   for (const int body : sole_bodies_)
-    sole_free_.push_back(tree.jointsBetween(tree.base_body, body).size() >= kFreeSoleJoints ? 1 : 0);
+    sole_free_.push_back(tree.posesFreely(body) ? 1 : 0);
   sole_refs_.resize(soles_.size());
   footprints_.resize(soles_.size());
   if (model.environment().has_ground && !soles_.empty()) {

@@ -36,6 +36,10 @@ bool KinematicTree::isAncestorOrRigid(int ancestor, int body) const {
   return moves(pa, body);
 }
 
+bool KinematicTree::posesFreely(int body) const {
+  return static_cast<int>(jointsBetween(base_body, body).size()) >= kJointsToPoseFreely;
+}
+
 std::vector<int> KinematicTree::jointsBetween(int ancestor, int body) const {
   if (!isAncestorOrRigid(ancestor, body))
     throw std::invalid_argument("KinematicTree: body " + std::to_string(ancestor) +

@@ -34,8 +34,6 @@ constexpr double kMaxFlatStanceTiltRad = 0.35;
 // A flat stance sole rolls over its toe or heel edge only where the reference's sole
 // pitches by more than this from the run's level (rad): heel-off, not the capture's jitter.
 constexpr double kRollDeadbandRad = 0.05;
-// A leg of fewer joints than this cannot orient its sole freely (no ankle roll, say).
-constexpr int kFreeSoleJoints = 6;
 // The body's weight (1/m, 1/rad) while such a leg's stance pose is solved: held where the
 // reference has it, the leg alone reaches for the flat pose.
 constexpr double kHeldBodyWeight = 100.0;
@@ -104,11 +102,17 @@ Setup findFeet(IDynamicsModel& model, const ReferenceCleanupOptions& options) {
   return setup;
 }
 
+// Height above the ground (m) of the lowest sole point with the foot's body at X_WB.
+double lowestSolePoint(const IDynamicsModel& model, const Foot& f, const Eigen::Isometry3d& X_WB) {
+  double h = std::numeric_limits<double>::infinity();
+  for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X_WB * p));
+  return h;
+}
+
 // Lowest sole point above the ground (m) and the sole centre (world) at the current state.
 void soleState(const IDynamicsModel& model, const Foot& f, double& height_m, Eigen::Vector3d& centre_W) {
   const Eigen::Isometry3d X = model.bodyPose(f.body);
-  height_m = std::numeric_limits<double>::infinity();
-  for (const Eigen::Vector3d& p : f.sole) height_m = std::min(height_m, groundHeight(model, X * p));
+  height_m = lowestSolePoint(model, f, X);
   centre_W = X * f.centre;
 }
 
@@ -373,21 +377,17 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
     Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
     X.linear() = Eigen::AngleAxisd(psi, normal).toRotationMatrix() * f.R_flat;
     X.translation() = centre_W - X.linear() * f.centre;
-    double h = std::numeric_limits<double>::infinity();
-    for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X * p));
-    X.translation() -= h * normal;
+    X.translation() -= lowestSolePoint(model, f, X) * normal;
     return X;
   };
   // Posture weights: legs (joints between the base and a foot) give way.
   const KinematicTree tree = kinematicTreeOf(model);
   Eigen::VectorXd weights = Eigen::VectorXd::Constant(info.nv, options.posture_weight);
   weights.head<6>().setConstant(options.base_weight);
-  std::vector<int> leg_joints(static_cast<std::size_t>(nf), 0);
-  for (int i = 0; i < nf; ++i)
-    for (const int j : tree.jointsBetween(tree.base_body, setup.feet[static_cast<std::size_t>(i)].body)) {
-      weights[info.velocityIndex(j)] = options.leg_weight;
-      ++leg_joints[static_cast<std::size_t>(i)];
-    }
+  for (const Foot& f : setup.feet)
+    for (const int j : tree.jointsBetween(tree.base_body, f.body)) weights[info.velocityIndex(j)] = options.leg_weight;
+  Eigen::VectorXd held = weights;
+  held.head<6>().setConstant(kHeldBodyWeight);
   // A stance pose of a leg that cannot orient its sole freely: the pose nearest the flat one
   // p (sole centre on it, turned least) that the leg reaches with the body held at the
   // reference's frame k; p itself where the leg reaches it.
@@ -395,9 +395,7 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
   std::vector<double> tilt_max(static_cast<std::size_t>(nf), 0.0);
   auto reachedPose = [&](int i, const Eigen::Isometry3d& P, int k) {
     const Foot& f = setup.feet[static_cast<std::size_t>(i)];
-    if (leg_joints[static_cast<std::size_t>(i)] >= kFreeSoleJoints) return P;
-    Eigen::VectorXd held = weights;
-    held.head<6>().setConstant(kHeldBodyWeight);
+    if (tree.posesFreely(f.body)) return P;
     IkTarget t;
     t.body = f.body;
     t.p_BP = f.centre;
@@ -417,9 +415,7 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
     Eigen::Isometry3d X = model.bodyPose(f.body);
     const Eigen::Vector3d n_W = X.linear() * f.R_flat.transpose() * normal;
     const double tilt_rad = std::acos(std::clamp(n_W.dot(normal), -1.0, 1.0));
-    double h = std::numeric_limits<double>::infinity();
-    for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X * p));
-    X.translation() -= h * normal;
+    X.translation() -= lowestSolePoint(model, f, X) * normal;
     ++tilted_runs[static_cast<std::size_t>(i)];
     tilt_max[static_cast<std::size_t>(i)] = std::max(tilt_max[static_cast<std::size_t>(i)], tilt_rad);
     return X;
@@ -494,8 +490,7 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
         // no sole point below the ground.
         Eigen::Isometry3d X = ref[static_cast<std::size_t>((b + e) / 2)];
         X.translation() += c - X * f.centre;
-        double h = std::numeric_limits<double>::infinity();
-        for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X * p));
+        const double h = lowestSolePoint(model, f, X);
         if (h < 0) X.translation() -= h * normal;
         pose[r] = X;
       } else {
@@ -543,8 +538,7 @@ CleanupResult cleanupReference(const ReferenceMotion& input, IDynamicsModel& mod
         X.linear() = c.R.toRotationMatrix() * X.linear();
         X.translation() = p - X.linear() * f.centre;
       }
-      double h = std::numeric_limits<double>::infinity();
-      for (const Eigen::Vector3d& p : f.sole) h = std::min(h, groundHeight(model, X * p));
+      const double h = lowestSolePoint(model, f, X);
       if (h < 0) X.translation() -= h * normal;
       goal[static_cast<std::size_t>(k)] = X;
     }
@@ -766,7 +760,7 @@ std::string formatCleanupReport(const CleanupReport& report) {
       std::snprintf(line, sizeof line,
                     "  foot %-22s %2d stance runs held at the tilt its leg reaches (up to %.1f deg): "
                     "fewer than %d joints cannot lay the sole flat there\n",
-                    f.link.c_str(), f.tilted_runs, f.tilt_max_rad * 180.0 / M_PI, kFreeSoleJoints);
+                    f.link.c_str(), f.tilted_runs, f.tilt_max_rad * 180.0 / M_PI, kJointsToPoseFreely);
       out << line;
     }
   }

@@ -215,7 +215,7 @@ class BalanceLayer {
   double mass_kg_ = 0.0;
   const Environment* environment_ = nullptr;  // the model's, from the last prepare()
   std::vector<int> sole_bodies_;
-  std::vector<char> sole_free_;  // per sole: its leg (base to sole) has six joints or more
+  std::vector<char> sole_free_;  // per sole: KinematicTree::posesFreely
   std::vector<SoleOptions> soles_;
   std::vector<SoleReference> sole_refs_;
   std::vector<SoleFootprint> footprints_;

@@ -9,6 +9,10 @@
 
 namespace dynfilter {
 
+/// Joints a chain needs from the base to orient and place a body freely (a leg with an
+/// ankle roll has six; one without has five and cannot lay its sole flat everywhere).
+inline constexpr int kJointsToPoseFreely = 6;
+
 /// Tree of the moving joints and the bodies they carry. Bodies rigidly attached to one
 /// another (URDF fixed joints) share their parent joint.
 struct KinematicTree {
@@ -35,6 +39,8 @@ struct KinematicTree {
   std::vector<int> jointsBetween(int ancestor, int body) const;
   /// Whether @p ancestor is @p body, rigid with it, or on its path to the root.
   bool isAncestorOrRigid(int ancestor, int body) const;
+  /// Whether the joints between the base and @p body number kJointsToPoseFreely or more.
+  bool posesFreely(int body) const;
 };
 
 /// Finds the tree of @p model by moving one joint at a time from the neutral
