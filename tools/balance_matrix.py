@@ -97,10 +97,11 @@ def run_case(name, args, build, out):
         bvh_path = out / f"{name}.bvh"
         mirror_bvh(pr.CMU / bvh, bvh_path)
     ref = out / f"{name}_reference.csv"
-    mapping_path = pr.CMU / "mappings" / mapping
+    mapping_path = (Path(args.mappings) if args.mappings else pr.CMU / "mappings") / mapping
     if args.cleanup:
+        mapping_text = mapping_path.read_text()
         mapping_path = out / f"{name}_mapping.yaml"
-        mapping_path.write_text((pr.CMU / "mappings" / mapping).read_text() + f"\ncleanup: {args.cleanup}\n")
+        mapping_path.write_text(mapping_text + f"\ncleanup: {args.cleanup}\n")
     subprocess.run([str(build / "tools/bvh2ref/dynfilter-bvh2ref"), str(bvh_path), "--mapping",
                     str(mapping_path), "-o", str(ref), "--report", str(out / f"{name}_bvh2ref.txt")],
                    check=True, capture_output=True)
@@ -153,6 +154,8 @@ def main():
     ap.add_argument("--config")
     ap.add_argument("--cleanup", help="clean-up options for every clip, YAML flow map, e.g. "
                     "'{balance: false}' (the mapping's cleanup: section)")
+    ap.add_argument("--mappings", help="folder of the clips' mappings (131_01.yaml, 01_01.yaml, 10_01.yaml) "
+                    "instead of data/mocap/cmu/mappings, e.g. ones written by --suggest-mapping")
     ap.add_argument("--only", default=",".join(CASES))
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--markdown")
