@@ -18,6 +18,8 @@ outputs show:
               head within 2 cm), i.e. a contact the reference has and the filter does not
   ref-foot    a stance foot of the reference sliding (> 0.15 m/s while within 5 mm of the
               ground) or sinking (> 5 mm below it)
+  held-turn   a sole the filter holds in contact while the reference turns it about the
+              vertical by more than 20° (the filter's by less than half that)
   limits      joints beyond their URDF range in the reference at the re-seed; torques at
               their limit (≥ 99 %) in ≥ 10 % of the window
   qp          ticks answered by a relaxation or a fallback in the window
@@ -230,6 +232,38 @@ def foot_findings(link, track):
     return out
 
 
+def yaw_of(R):
+    """Heading of a rotation about world z (rad)."""
+    return math.atan2(R[1, 0], R[0, 0])
+
+
+def held_while_turned(link, times, held, ref_states, fil_states, min_turn_rad=0.35):
+    """A sole the filter holds in contact while the reference turns it about the vertical:
+    per run of consecutive rows with `held` true, the reference's and the filter's change of
+    the link's heading over the run (unwrapped). Named when the reference turns it by more
+    than min_turn_rad and the filter by less than half of that: a held contact fixes the
+    sole's yaw, and the leg's turn goes into the body instead."""
+    out, k = [], 0
+    while k < len(times):
+        if not held[k]:
+            k += 1
+            continue
+        e = k
+        while e + 1 < len(times) and held[e + 1]:
+            e += 1
+
+        def turn(states):
+            yaw = np.unwrap([yaw_of(s[0][link]) for s in states[k:e + 1]])
+            return float(yaw.max() - yaw.min()) if len(yaw) else 0.0
+
+        ref_turn, fil_turn = turn(ref_states), turn(fil_states)
+        if ref_turn > min_turn_rad and fil_turn < 0.5 * ref_turn:
+            out.append(f"{link} held in contact {times[k]:.2f}–{times[e]:.2f} s while the reference turns it by "
+                       f"{math.degrees(ref_turn):.0f}° (the filter's by {math.degrees(fil_turn):.0f}°)")
+        k = e + 1
+    return out
+
+
 def joints_beyond(lower, upper, q):
     """(excess, joint) of the joints of q more than 0.05 rad outside [lower, upper], largest first."""
     beyond = []
@@ -350,6 +384,13 @@ def analyse(name, ref_csv, fil_csv, contacts_csv, events_csv, body, ground):
         for l in feet:
             findings += foot_findings(l, foot_track(body, [S_ref[i] for i in ref_rows],
                                                     [ref["time"][i] for i in ref_rows], l, ground))
+        # Soles the filter holds while the reference turns them.
+        if contacts:
+            for l in feet:
+                held = [bool(np.any((contacts["body"] == l) & (np.abs(contacts["time"] - t_f[k]) < 0.5 * dt)))
+                        for k in ks]
+                findings += held_while_turned(l, [t_f[k] for k in ks], held, [S_ref[i] for i in ref_rows],
+                                              [S_fil[k] for k in ks])
         # Limits.
         i = idx_ref[min(k_end, len(t_f) - 1)]
         beyond = joints_beyond(body.lower, body.upper, {j: ref[j][i] for j in body.lower if j in ref})

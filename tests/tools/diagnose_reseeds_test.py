@@ -4,7 +4,9 @@ at a known time by known distances; a teleport in the re-seed's output row (and 
 previous re-seed's) does not leak into those numbers through the central differences;
 re-seeds less than 0.1 s apart form one episode; a reference foot sliding within 5 mm of
 the ground, or sinking more than 5 mm into it, is named, and one at rest or in the air is
-not; a non-foot body within 2 cm of the ground is named; the soles are the bodies of the
+not; a sole held in contact while the reference turns it about the vertical (by more than
+20°, the filter's by less than half) is named, per run of held rows; a non-foot body within
+2 cm of the ground is named; the soles are the bodies of the
 reference's contact schedule; a joint beyond its URDF range and a
 torque at its limit are named. The kinematics go through the tool's own Body on a small URDF.
 
@@ -208,6 +210,36 @@ def test_foot_slide_and_sink(dr, body):
     check(got == ["reference l_foot sinks 10 mm"], f"foot 10 mm into the platform: {got}")
 
 
+def test_held_while_turned(dr, body):
+    # The reference turns the whole probe about the vertical by 0.6 rad over 10 rows (its
+    # l_foot with it); the filter's stays. Headings wrap past ±π without a false turn.
+    def turned(yaw0, total):
+        out = []
+        for k in range(10):
+            a = yaw0 + total * k / 9
+            out.append(body.fk([0.0, 0.0, FOOT_DROP], [math.cos(a / 2), 0.0, 0.0, math.sin(a / 2)], {}))
+        return out
+
+    times = [k * DT for k in range(10)]
+    ref, still = turned(0.0, 0.6), turned(0.0, 0.0)
+    got = dr.held_while_turned("l_foot", times, [True] * 10, ref, still)
+    check(got == ["l_foot held in contact 0.00–0.09 s while the reference turns it by 34° (the filter's by 0°)"],
+          f"held while turned: {got}")
+    check(dr.held_while_turned("l_foot", times, [False] * 10, ref, still) == [], "not held: no finding")
+    check(dr.held_while_turned("l_foot", times, [True] * 10, ref, turned(0.0, 0.4)) == [],
+          "the filter turning it by 0.4 rad of the reference's 0.6 is no finding")
+    check(dr.held_while_turned("l_foot", times, [True] * 10, turned(0.0, 0.3), still) == [],
+          "a turn of 0.3 rad (17°) is within the bound")
+    got = dr.held_while_turned("l_foot", times, [True] * 10, turned(math.pi - 0.1, 0.6), turned(math.pi - 0.1, 0.0))
+    check(len(got) == 1 and "by 34°" in got[0], f"turning through ±π: {got}")
+    # Held over rows 0-4 and 6-9: two runs, each with its own share of the turn (0.27 and
+    # 0.2 rad): neither is named; over 0-7 the run turns by 0.47 rad (27°).
+    check(dr.held_while_turned("l_foot", times, [k != 5 for k in range(10)], ref, still) == [], "split runs")
+    got = dr.held_while_turned("l_foot", times, [k < 8 for k in range(10)], ref, still)
+    check(got == ["l_foot held in contact 0.00–0.07 s while the reference turns it by 27° (the filter's by 0°)"],
+          f"a run over rows 0-7: {got}")
+
+
 def test_soles(dr, body, tmp):
     # From the contact schedule beside the reference (its columns that are links of the
     # model), whatever their names; without one, the links named like a foot.
@@ -319,7 +351,8 @@ def main():
         body = dr.Body(tmp / "probe.urdf")
         tests = [(test_capture_point, ()), (test_capture_exit, ()), (test_window_rows, ()),
                  (test_teleport_does_not_leak, ()), (test_episodes, (tmp,)),
-                 (test_foot_slide_and_sink, (body,)), (test_reference_contacts, (body,)), (test_limits, (body,)),
+                 (test_foot_slide_and_sink, (body,)), (test_held_while_turned, (body,)),
+                 (test_reference_contacts, (body,)), (test_limits, (body,)),
                  (test_soles, (body, tmp))]
         for fn, extra in tests:
             try:
