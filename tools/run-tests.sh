@@ -46,8 +46,8 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
     grep -vxE 'test_processes')"
   cmake --build build-asan --target $asan_targets
   # real_descriptions_*, model_info_* and diagnose_reseeds_kick run dynfilter-model-info
-  # (and the TALOS walk and the kick's diagnosis, dynfilter-bvh2ref and dynfilter-offline),
-  # programs this build does not make
+  # (and the TALOS walk and the kick's diagnosis, dynfilter-bvh2ref and dynfilter-offline;
+  # bvh_conventions, dynfilter-bvh2ref), programs this build does not make
   # (test executables only); the loaders and both backends run here under the test_urdf
   # and test_backends cases of the same descriptions' edge cases.
   # ReferenceCleanup.ShippedClipsHaveStillFeetAndNoJumps cleans every shipped clip up with
@@ -64,7 +64,7 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E "$(printf '%s|' \
     '_NOT_BUILT$' '^LcmProcesses\.' '^soak' '^paper_results' '^plot_lcm_log$' '^exported_package' \
     '^lcm_python_types$' '^lcm_spy_' '^human_figure_is_regenerated' '^core_include_guard' \
-    '^examples_build' '^python_' '^balance_matrix_' '^real_descriptions_' '^model_info_' '^diagnose_reseeds_kick$' \
+    '^examples_build' '^python_' '^balance_matrix_' '^real_descriptions_' '^model_info_' '^diagnose_reseeds_kick$' '^bvh_conventions$' \
     '^ReferenceCleanup\.ShippedClipsHaveStillFeetAndNoJumps$' '^Engines/RealtimeClosedLoop\.' \
     '^ClosedLoopOnDart\.WithDartsDefaultContactsTheFeetRock$' \
     | sed 's/|$//')"
