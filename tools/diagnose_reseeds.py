@@ -335,10 +335,16 @@ def analyse(name, ref_csv, fil_csv, contacts_csv, events_csv, body, ground):
     feet = soles_of(ref_csv, body)
     others = [l for l in body.shapes if l not in feet]
 
-    def support_fil(k):
+    def held_bodies(k):
+        """The bodies the filter holds in contact at output row k."""
         if not contacts:
+            return set()
+        return set(contacts["body"][np.abs(contacts["time"] - t_f[k]) < 0.5 * dt])
+
+    def support_fil(k):
+        bodies = held_bodies(k)
+        if not bodies:
             return np.zeros((0, 2))
-        bodies = set(contacts["body"][np.abs(contacts["time"] - t_f[k]) < 0.5 * dt])
         pts = []
         for l in bodies:
             W = body.lowest(*S_fil[k], l)
@@ -385,12 +391,10 @@ def analyse(name, ref_csv, fil_csv, contacts_csv, events_csv, body, ground):
             findings += foot_findings(l, foot_track(body, [S_ref[i] for i in ref_rows],
                                                     [ref["time"][i] for i in ref_rows], l, ground))
         # Soles the filter holds while the reference turns them.
-        if contacts:
-            for l in feet:
-                held = [bool(np.any((contacts["body"] == l) & (np.abs(contacts["time"] - t_f[k]) < 0.5 * dt)))
-                        for k in ks]
-                findings += held_while_turned(l, [t_f[k] for k in ks], held, [S_ref[i] for i in ref_rows],
-                                              [S_fil[k] for k in ks])
+        held = [held_bodies(k) for k in ks]
+        for l in feet:
+            findings += held_while_turned(l, [t_f[k] for k in ks], [l in h for h in held],
+                                          [S_ref[i] for i in ref_rows], [S_fil[k] for k in ks])
         # Limits.
         i = idx_ref[min(k_end, len(t_f) - 1)]
         beyond = joints_beyond(body.lower, body.upper, {j: ref[j][i] for j in body.lower if j in ref})
