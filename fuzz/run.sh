@@ -2,7 +2,7 @@
 # Builds the libFuzzer targets (clang, ASan + UBSan, build dir build-fuzz) and runs every
 # target for a bounded time, as many at once as there are cores.
 #
-#   fuzz/run.sh [seconds-per-target]          (default 60; CI runs tools/run-tests.sh: 15)
+#   fuzz/run.sh [seconds-per-target]          (default 60; tools/run-tests.sh runs 20)
 #
 # Environment: FUZZ_TARGETS="urdf bvh ..." (default: all), FUZZ_JOBS (default: nproc),
 # FUZZ_BUILD_DIR (default: build-fuzz), FUZZ_EXTRA_ARGS (more libFuzzer flags).

@@ -38,12 +38,13 @@ if [ "${DYNFILTER_SANITIZERS:-1}" != 0 ]; then
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
     -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize=vptr,null,alignment -fno-sanitize-recover=undefined -fno-omit-frame-pointer -DEIGEN_MALLOC_ALREADY_ALIGNED=1" \
     -DDYNFILTER_BUILD_BENCHMARKS=OFF -DDYNFILTER_BUILD_PYTHON=OFF -DDYNFILTER_LCM_VENV="$PWD/build/venv"
-  # Every test executable and fuzz replay driver but test_processes (real-time rates; its
-  # tests are excluded anyway). The allocation tests skip here: ASan owns malloc, so
+  # Every test executable and fuzz replay driver but test_processes and
+  # test_realtime_closed_loop, whose tests are all excluded below (real-time rates; the
+  # whole closed-loop runs). The allocation tests skip here: ASan owns malloc, so
   # tests/support/allocation_counter.cpp counts nothing in this build.
   asan_targets="$(ninja -C build-asan -t targets all |
     sed -n 's/^\(test_[a-z0-9_]*\|fuzz_replay_[a-z0-9_]*\): phony$/\1/p' |
-    grep -vxE 'test_processes')"
+    grep -vxE 'test_processes|test_realtime_closed_loop')"
   cmake --build build-asan --target $asan_targets
   # real_descriptions_*, model_info_* and diagnose_reseeds_kick run dynfilter-model-info
   # (and the TALOS walk and the kick's diagnosis, dynfilter-bvh2ref and dynfilter-offline;
