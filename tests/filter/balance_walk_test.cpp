@@ -109,7 +109,7 @@ std::array<WalkWindow, 2> runWalk(double seconds, double split_s, bool cleanup) 
 // The stance before the first step (to 1.0 s), then through the first steps (to 1.85 s;
 // dynfilter-offline with main's filter re-seeded at 1.47 s on this clip once).
 TEST(Balance, TheCmuWalksStanceAndFirstStepsWithTheDefaultsNeedNoReseed) {
-  const std::array<WalkWindow, 2> windows = runWalk(1.85, 1.0, true);
+  const std::array<WalkWindow, 2> windows = runWalk(1.85, 1.0, /*cleanup=*/true);
   {
     SCOPED_TRACE("stance, 0-1.0 s");
     const WalkWindow& w = windows[0];
@@ -153,7 +153,7 @@ TEST(Balance, TheCmuWalksStanceAndFirstStepsWithTheDefaultsNeedNoReseed) {
 // limits. The figure cannot follow it everywhere (relaxed ticks, a re-seed may come), but
 // every tick still satisfies Eq. 12 with an unactuated base, and nothing non-finite leaves.
 TEST(Balance, TheRawCmuWalksFirstStepsGiveConsistentTicks) {
-  const std::array<WalkWindow, 2> windows = runWalk(1.85, 1.0, false);
+  const std::array<WalkWindow, 2> windows = runWalk(1.85, 1.0, /*cleanup=*/false);
   const WalkWindow& w = windows[1];
   RecordProperty("reseeds", std::to_string(w.reseeds));
   RecordProperty("legs_rms_rad", std::to_string(w.legs_rms));
