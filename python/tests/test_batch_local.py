@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 import dynfilter
-from conftest import MODEL, ROOT, make_collection, read_csv, read_summary, run_batch, tool
+from conftest import (MODEL, ROOT, cut_collection, make_collection, read_csv, read_summary,
+                      run_batch, tool)
 
 
 def test_batch_two_workers_reports_failures_and_skips_what_is_done(tmp_path):
@@ -78,7 +79,7 @@ def test_batch_two_workers_reports_failures_and_skips_what_is_done(tmp_path):
 
 def test_batch_of_a_folder_finds_mappings(tmp_path):
     out = tmp_path / "out"
-    r = run_batch([ROOT / "data" / "mocap" / "cmu", "-o", out, "--workers", "2",
+    r = run_batch([cut_collection(tmp_path / "cmu", 1.0), "-o", out, "--workers", "2",
                    "--max-seconds", "0.5", "--mode", "qp", "--progress", "none"])
     assert r.returncode == 0, r.stdout + r.stderr
     rows = read_summary(out)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import dynfilter
-from conftest import CMU, MODEL, ROOT, SQUAT, read_csv, run_tool, tool
+from conftest import CMU, MODEL, ROOT, SQUAT, cut_bvh, read_csv, run_tool, tool
 
 TIMING = {"solve_time_s", "tick_time_s"}
 
@@ -73,7 +73,7 @@ def test_filter_motion_equals_offline_tool_on_the_squat(tmp_path, model, mode):
 
 def test_retarget_and_filter_equal_bvh2ref_then_offline(tmp_path, model):
     bvh2ref, offline = tool("bvh2ref"), tool("offline")
-    bvh = CMU / "131_01_start_walk_stop.bvh"
+    bvh = cut_bvh(CMU / "131_01_start_walk_stop.bvh", tmp_path / "walk.bvh", 2.0)
     mapping = CMU / "mappings" / "131_01.yaml"
     ref_tool = tmp_path / "ref_tool.csv"
     r = run_tool([bvh2ref, bvh, "--mapping", mapping, "-o", ref_tool])

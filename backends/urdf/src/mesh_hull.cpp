@@ -118,20 +118,8 @@ ConvexHull convexHullOfMesh(const std::string& path, const Eigen::Vector3d& scal
   ConvexHull hull;
   // Bullet's hull vertices are its (single-precision) copies of input points: take the
   // input point each one came from, so the hull is exact in double.
-  for (int i = 0; i < computer.vertices.size(); ++i) {
-    const Eigen::Vector3d approx(computer.vertices[i].x(), computer.vertices[i].y(),
-                                 computer.vertices[i].z());
-    std::size_t best = 0;
-    double best_d = std::numeric_limits<double>::infinity();
-    for (std::size_t k = 0; k < points.size(); ++k) {
-      const double d = (points[k] - approx).squaredNorm();
-      if (d < best_d) {
-        best_d = d;
-        best = k;
-      }
-    }
-    hull.vertices_S.push_back(points[best]);
-  }
+  for (int i = 0; i < computer.vertices.size(); ++i)
+    hull.vertices_S.push_back(points[static_cast<std::size_t>(computer.original_vertex_index[i])]);
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (const auto& v : hull.vertices_S) centroid += v;
   centroid /= static_cast<double>(hull.vertices_S.size());
