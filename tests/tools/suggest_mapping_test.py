@@ -75,7 +75,8 @@ def main():
         subprocess.run([args.bvh2ref, os.path.join(CMU, "01_01_forward_jumps.bvh"), "--model", g1,
                         "--suggest-mapping", jump_map], check=True, stdout=subprocess.DEVNULL)
         report = subprocess.run([args.bvh2ref, os.path.join(CMU, "01_01_forward_jumps.bvh"), "--model", g1,
-                                 "--mapping", jump_map, "-o", os.path.join(tmp, "jump_g1.csv")],
+                                 "--mapping", jump_map, "--no-cleanup",  # the IK's table: before the clean-up
+                                 "-o", os.path.join(tmp, "jump_g1.csv")],
                                 check=True, stdout=subprocess.PIPE, text=True).stdout
         targets = report.split("IK targets", 1)[1].split("joint limits", 1)[0]  # that table only
         rms = [float(x) for x in re.findall(r"^\s+\S+\s+([0-9.]+) /\s+[0-9.]+", targets, re.M)]
