@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <limits>
 #include <filesystem>
 #include <stdexcept>
 
@@ -118,6 +117,8 @@ ConvexHull convexHullOfMesh(const std::string& path, const Eigen::Vector3d& scal
   ConvexHull hull;
   // Bullet's hull vertices are its (single-precision) copies of input points: take the
   // input point each one came from, so the hull is exact in double.
+  if (computer.original_vertex_index.size() != computer.vertices.size())
+    throw std::runtime_error("mesh \"" + path + "\": Bullet's convex hull gave no input index per vertex");
   for (int i = 0; i < computer.vertices.size(); ++i)
     hull.vertices_S.push_back(points[static_cast<std::size_t>(computer.original_vertex_index[i])]);
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
