@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string_view>
 #include <unordered_map>
+#include <unordered_set>
 
 #include <Eigen/Geometry>
 #include <Eigen/QR>
@@ -96,6 +97,10 @@ ReferenceMotion readReferenceMotion(const std::string& path, const ModelInfo& in
                                     const ReferenceReadOptions& options) {
   options.validate();
   const std::unordered_map<std::string, ColumnRole> known = knownColumns(path, info);
+  std::unordered_set<std::string> locked;
+  for (const std::string& joint : info.locked_joint_names)
+    for (const char* suffix : {"", detail::kVelocitySuffix, detail::kAccelerationSuffix})
+      locked.insert(joint + suffix);
 
   errno = 0;
   std::ifstream in(path, std::ios::binary);
@@ -146,7 +151,8 @@ ReferenceMotion readReferenceMotion(const std::string& path, const ModelInfo& in
                                std::to_string(it->second) + ")");
         const auto role = known.find(name);
         if (role == known.end()) {
-          if (!options.allow_extra_columns)
+          if (locked.count(name) != 0) motion.ignored_columns.push_back(name);
+          else if (!options.allow_extra_columns)
             throw InputError(path, line_no, column, "unknown column " + detail::quoted(name));
           roles.push_back(ColumnRole{});
         } else {

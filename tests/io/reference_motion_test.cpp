@@ -214,6 +214,24 @@ TEST(ReferenceMotionReader, FixedBaseModelReadsJointsOnly) {
   EXPECT_NEAR(m.frames[1].v[1], (0.5 - 0.1) / 0.2, 1e-12);
 }
 
+TEST(ReferenceMotionReader, ColumnsOfLockedJointsAreNotRead) {
+  // A reference made for the whole robot, read by a model with one joint welded
+  // (--lock-joints): that joint's columns are listed and skipped, any other name still fails.
+  ModelInfo info = fixedInfo();
+  info.locked_joint_names = {"wrist"};
+  const std::string path = tempPath("locked.csv");
+  writeFile(path,
+            "time,slide,wrist,hinge,slide.v,wrist.v,hinge.v\n"
+            "0,0.1,9,0.2,1,9,2\n0.1,0.3,9,0.4,3,9,4\n");
+  const ReferenceMotion m = readReferenceMotion(path, info);
+  ASSERT_EQ(m.frames.size(), 2u);
+  EXPECT_EQ(m.frames[1].q, Eigen::Vector2d(0.4, 0.3));
+  EXPECT_EQ(m.frames[1].v, Eigen::Vector2d(4, 3));
+  EXPECT_EQ(m.ignored_columns, (std::vector<std::string>{"wrist", "wrist.v"}));
+  info.locked_joint_names.clear();
+  expectInputError([&] { readReferenceMotion(path, info); }, path, 1, 3, "unknown column \"wrist\"");
+}
+
 TEST(ReferenceMotionReader, QuaternionWithinToleranceIsNormalised) {
   const ModelInfo& info = humanInfo();
   auto frames = sampleFrames(info, 3);

@@ -302,6 +302,11 @@ TEST(UrdfLoader, LockedJointsAreWeldedAtTheirPosition) {
       free.joints[static_cast<std::size_t>(right)].X_PJ * Eigen::AngleAxisd(-0.9 * 0.3 + 0.05, Eigen::Vector3d::UnitY());
   EXPECT_TRUE(robot.joints[static_cast<std::size_t>(right)].X_PJ.isApprox(expected, 1e-14));
   EXPECT_EQ(robot.joints[static_cast<std::size_t>(right)].type, JointType::kFixed);
+  // The model's names say which joints were welded (a reference's columns for them are skipped).
+  EXPECT_EQ(makeModelInfo(robot, false).locked_joint_names,
+            (std::vector<std::string>{"wrist", "left_finger_joint", "right_finger_joint", "left_tip_joint",
+                                      "pusher_joint"}));
+  EXPECT_TRUE(makeModelInfo(free, false).locked_joint_names.empty());
   options.lock_joints = {"no_such_*"};
   EXPECT_THROW(loadUrdfFile(test::testModelPath("mimic_gripper.urdf"), options), ModelError);
   options.lock_joints = {"right_finger_joint"};  // a follower without its leader

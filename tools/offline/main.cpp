@@ -160,6 +160,11 @@ int main(int argc, char** argv) {
     // given on the command line passes under the motion's first base position.
     const auto coordinates = makeModel(backend, robot, ModelOptions{});
     io::ReferenceMotion motion = io::readReferenceMotion(reference_path, coordinates->info());
+    if (!motion.ignored_columns.empty()) {
+      std::string names;
+      for (const std::string& c : motion.ignored_columns) names += (names.empty() ? "" : ", ") + c;
+      std::fprintf(stderr, "%s: columns of locked joints not read: %s\n", reference_path.c_str(), names.c_str());
+    }
     if (!std::isnan(slope_deg)) {
       const double slope = slope_deg * M_PI / 180.0, heading = heading_deg * M_PI / 180.0;
       const Eigen::VectorXd q0 = motion.frames.front().q;

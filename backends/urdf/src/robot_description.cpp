@@ -66,6 +66,8 @@ ModelInfo makeModelInfo(const RobotDescription& robot, bool floating_base) {
     info.tau_max[c] = j.effort_max;
   }
   for (const auto& link : robot.links) info.body_names.push_back(link.name);
+  for (const JointDesc& j : robot.joints)
+    if (j.locked) info.locked_joint_names.push_back(j.name);
   info.total_mass = robot.totalMass();
   return info;
 }
@@ -115,6 +117,7 @@ void lockJoints(RobotDescription& robot, const std::vector<JointLock>& locks) {
     else
       joint.X_PJ = joint.X_PJ * Eigen::AngleAxisd(q, joint.axis_J);
     joint.type = JointType::kFixed;
+    joint.locked = true;
     joint.mimic_leader = -1;
     joint.mimic_multiplier = 1.0;
     joint.mimic_offset = 0.0;

@@ -41,6 +41,9 @@ struct ModelInfo {
   int nj = 0;                       ///< actuated joints (N_J)
   std::vector<std::string> joint_names;  ///< dim nj, URDF file order
   std::vector<std::string> body_names;   ///< all links, URDF file order
+  /// Joints of the description welded on request (e.g. --lock-joints), URDF file order: not
+  /// in joint_names; a reference's columns for them are not read.
+  std::vector<std::string> locked_joint_names;
   Eigen::VectorXd q_lower;   ///< dim nj; −inf for continuous joints (rad or m)
   Eigen::VectorXd q_upper;   ///< dim nj; +inf for continuous joints (rad or m)
   Eigen::VectorXd v_max;     ///< dim nj; |q̇| bound (rad/s or m/s); +inf when absent

@@ -26,6 +26,9 @@ struct ReferenceMotion {
                                        ///< q dim nq (unit base quaternion), v and vdot dim nv
   bool had_velocities = false;     ///< v came from the file (else estimated, see below)
   bool had_accelerations = false;  ///< vdot came from the file (else estimated)
+  /// Columns of joints the model has locked (ModelInfo::locked_joint_names), and of their
+  /// velocities and accelerations: in the file, not read (the joint stays where it is welded).
+  std::vector<std::string> ignored_columns;
 };
 
 struct ReferenceReadOptions {

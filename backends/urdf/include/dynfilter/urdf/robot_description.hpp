@@ -80,6 +80,7 @@ struct JointDesc {
   int mimic_leader = -1;
   double mimic_multiplier = 1.0;
   double mimic_offset = 0.0;    ///< rad or m
+  bool locked = false;          ///< welded on request (lockJoints): now a fixed joint
 
   bool moving() const { return type != JointType::kFixed; }
   bool mimics() const { return mimic_leader >= 0; }
