@@ -326,6 +326,12 @@ TEST(UrdfLoader, MeshCollisionsBecomeConvexHulls) {
   const auto& right = robot.links[static_cast<std::size_t>(robot.findLink("r_foot"))].collisions;
   ASSERT_EQ(right.size(), 1u);
   EXPECT_EQ(right[0].hull.vertices_S.size(), 8u);  // the frustum OBJ without its inner vertex
+  // Each hull vertex is the file's own point (assimp reads floats), not Bullet's copy of it.
+  for (const Eigen::Vector3f& corner : {Eigen::Vector3f(0.1f, -0.05f, -0.01f), Eigen::Vector3f(-0.08f, 0.04f, 0.01f)}) {
+    const Eigen::Vector3d exact = corner.cast<double>();
+    EXPECT_EQ(std::count(right[0].hull.vertices_S.begin(), right[0].hull.vertices_S.end(), exact), 1)
+        << exact.transpose();
+  }
   // Every vertex is on or inside every face plane, and on at least three of them.
   for (const auto* hull : {&left[0].hull, &right[0].hull}) {
     for (const auto& v : hull->vertices_S) {
