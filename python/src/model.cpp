@@ -83,6 +83,9 @@ void bindModel(py::module_& m) {
       .def_property_readonly("body_names",
                              [](const Model& mo) { return mo.engine->info().body_names; })
       .def_property_readonly(
+          "locked_joint_names", [](const Model& mo) { return mo.engine->info().locked_joint_names; },
+          "Joints welded by lock_joints (file order); a reference's columns for them are skipped.")
+      .def_property_readonly(
           "joint_groups",
           [](Model& mo) {
             std::vector<std::string> names;

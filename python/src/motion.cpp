@@ -156,6 +156,9 @@ void bindMotion(py::module_& m) {
       .def_property_readonly("had_velocities", [](const Reference& r) { return r.motion.had_velocities; })
       .def_property_readonly("had_accelerations",
                              [](const Reference& r) { return r.motion.had_accelerations; })
+      .def_property_readonly(
+          "ignored_columns", [](const Reference& r) { return r.motion.ignored_columns; },
+          "Columns of the file for joints the model locks (and their .v/.a): not read.")
       .def("__len__", [](const Reference& r) { return r.motion.frames.size(); })
       .def("truncated",
            [](const Reference& r, double max_seconds) {

@@ -254,6 +254,20 @@ def test_package_paths_and_locked_joints(tmp_path):
     full = dict(zip(m.body_names, m.body_positions(q)))
     welded = dict(zip(locked.body_names, locked.body_positions(locked.neutral_configuration())))
     assert np.max(np.abs(np.asarray(full["l_foot"]) - np.asarray(welded["l_foot"]))) <= 1e-12
+    assert locked.locked_joint_names == ["l_knee", "l_ankle_roll", "r_knee"]  # file order
+    assert m.locked_joint_names == []
+    # A reference of the whole biped reads into the locked model: the welded joints' columns
+    # are skipped and named, the others read as the full model reads them.
+    t = np.linspace(0.0, 0.2, 5)
+    q_full = np.tile(q, (len(t), 1))
+    q_full[:, 7 + m.joint_names.index("r_hip_pitch")] = np.linspace(0.0, 0.1, len(t))
+    csv = tmp_path / "whole.csv"
+    dynfilter.make_reference(m, t, q_full).write_csv(str(csv), m)
+    ref = dynfilter.read_reference(str(csv), locked)
+    assert ref.ignored_columns == ["l_knee", "l_ankle_roll", "r_knee"]
+    kept = [m.joint_names.index(j) for j in locked.joint_names]
+    assert np.array_equal(ref.q[:, 7:], q_full[:, 7:][:, kept])
+    assert dynfilter.read_reference(str(csv), m).ignored_columns == []
     with pytest.raises(dynfilter.ModelError, match="no_such"):
         dynfilter.Model(str(urdf), package_paths=[str(models)], lock_joints=["no_such_*"])
 
