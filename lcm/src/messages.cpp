@@ -164,21 +164,25 @@ const char* toString(MessageError error) {
 
 JointNameMap::JointNameMap(const ModelInfo& info)
     : nj_(info.nj),
-      cached_names_(static_cast<std::size_t>(info.nj)),
-      indices_(static_cast<std::size_t>(info.nj), -1),
-      scratch_(static_cast<std::size_t>(info.nj), -1),
-      seen_(static_cast<std::size_t>(info.nj), 0) {
-  by_name_.reserve(static_cast<std::size_t>(info.nj));
+      locked_(static_cast<int>(info.locked_joint_names.size())),
+      cached_names_(static_cast<std::size_t>(maxCount())),
+      indices_(static_cast<std::size_t>(maxCount()), -1),
+      scratch_(static_cast<std::size_t>(maxCount()), -1),
+      seen_(static_cast<std::size_t>(maxCount()), 0) {
+  by_name_.reserve(static_cast<std::size_t>(maxCount()));
   for (int j = 0; j < info.nj; ++j) by_name_.emplace(info.joint_names[static_cast<std::size_t>(j)], j);
+  // Locked joints after the model's: nj, nj + 1, ...
+  for (int l = 0; l < locked_; ++l) by_name_.emplace(info.locked_joint_names[static_cast<std::size_t>(l)], nj_ + l);
 }
 
 MessageCheck JointNameMap::map(const std::vector<std::string>& names, int count) {
-  if (count != nj_) return fail(MessageError::kWrongJointCount, "joint count differs from the model's");
+  if (count < nj_ || count > maxCount())
+    return fail(MessageError::kWrongJointCount, "joint count differs from the model's");
   if (arrayTooShort(names.size(), count))
     return fail(MessageError::kBadCount, "fewer joint names than num_joints");
   const std::size_t n = static_cast<std::size_t>(count);
 
-  if (cache_valid_) {
+  if (cached_count_ == count) {
     bool same = true;
     for (std::size_t i = 0; i < n && same; ++i) same = names[i] == cached_names_[i];
     if (same) return {};
@@ -193,12 +197,16 @@ MessageCheck JointNameMap::map(const std::vector<std::string>& names, int count)
     if (seen_[j] != 0)
       return fail(MessageError::kDuplicateJoint, "joint name given twice", static_cast<int>(i));
     seen_[j] = 1;
-    scratch_[i] = it->second;
+    scratch_[i] = it->second < nj_ ? it->second : -1;
   }
-  // count == nj and every name distinct and known: a permutation of the model's joints.
+  // Every name distinct and known: the model's joints are all there when the locked ones
+  // leave exactly nj entries.
+  int model_joints = 0;
+  for (int j = 0; j < nj_; ++j) model_joints += seen_[static_cast<std::size_t>(j)];
+  if (model_joints != nj_) return fail(MessageError::kWrongJointCount, "joint count differs from the model's");
   indices_.swap(scratch_);
   for (std::size_t i = 0; i < n; ++i) cached_names_[i] = names[i];  // allocates only for new names
-  cache_valid_ = true;
+  cached_count_ = count;
   return {};
 }
 
@@ -220,7 +228,12 @@ ReferenceFrameReader::ReferenceFrameReader(const ModelInfo& info)
   for (std::size_t b = 0; b < info.body_names.size(); ++b)
     body_by_name_.emplace(info.body_names[b], static_cast<int>(b));
   // Room for a full message, so that decoding a valid one does not allocate.
+  const auto n = static_cast<std::size_t>(names_.maxCount());
   message_.num_joints = info.nj;
+  message_.joint_names.reserve(n);
+  message_.q.reserve(n);
+  message_.qd.reserve(n);
+  message_.qdd.reserve(n);
   message_.joint_names.resize(static_cast<std::size_t>(info.nj));
   message_.q.resize(static_cast<std::size_t>(info.nj));
   message_.qd.resize(static_cast<std::size_t>(info.nj));
@@ -236,7 +249,7 @@ MessageCheck ReferenceFrameReader::read(const void* data, std::size_t size, Refe
   const auto* bytes = static_cast<const unsigned char*>(data);
   const std::int32_t num_joints = readBigEndian32(bytes + kReferenceJointCountOffset);
   const std::int32_t num_hints = readBigEndian32(bytes + kReferenceHintCountOffset);
-  if (num_joints != info_.nj)
+  if (num_joints < info_.nj || num_joints > names_.maxCount())
     return fail(MessageError::kWrongJointCount, "joint count differs from the model's");
   if (num_hints < 0 || static_cast<std::size_t>(num_hints) > info_.body_names.size())
     return fail(MessageError::kBadCount, "contact hint count negative or above the number of bodies");
@@ -313,6 +326,7 @@ MessageCheck ReferenceFrameReader::convert(const reference_frame_t& msg, Referen
   for (int i = 0; i < n; ++i) {
     const auto k = static_cast<std::size_t>(i);
     const int j = joint[k];
+    if (j < 0) continue;  // a locked joint
     frame.q[info_.configurationIndex(j)] = msg.q[k];
     frame.v[info_.velocityIndex(j)] = msg.qd[k];
     frame.vdot[info_.velocityIndex(j)] = msg.qdd[k];
@@ -350,6 +364,11 @@ RobotStateInput::RobotStateInput(const ModelInfo& info)
       tau(Eigen::VectorXd::Zero(info.nj)) {}
 
 RobotStateReader::RobotStateReader(const ModelInfo& info) : info_(info), names_(info) {
+  const auto n = static_cast<std::size_t>(names_.maxCount());
+  message_.joint_names.reserve(n);
+  message_.q.reserve(n);
+  message_.qd.reserve(n);
+  message_.tau.reserve(n);
   message_.num_joints = info.nj;
   message_.joint_names.resize(static_cast<std::size_t>(info.nj));
   message_.q.resize(static_cast<std::size_t>(info.nj));
@@ -362,10 +381,11 @@ MessageCheck RobotStateReader::read(const void* data, std::size_t size, RobotSta
       checkHeader(data, size, kRobotStateJointCountOffset + 4, robot_state_t::getHash());
   if (!check.ok()) return check;
   const auto* bytes = static_cast<const unsigned char*>(data);
-  if (readBigEndian32(bytes + kRobotStateJointCountOffset) != info_.nj)
+  const std::int32_t num_joints = readBigEndian32(bytes + kRobotStateJointCountOffset);
+  if (num_joints < info_.nj || num_joints > names_.maxCount())
     return fail(MessageError::kWrongJointCount, "joint count differs from the model's");
   WireCursor cursor(bytes, size, kRobotStateJointCountOffset + 4);
-  if (!cursor.skipStrings(info_.nj) || !cursor.skip(3 * 8 * static_cast<std::size_t>(info_.nj)))
+  if (!cursor.skipStrings(num_joints) || !cursor.skip(3 * 8 * static_cast<std::size_t>(num_joints)))
     return fail(MessageError::kMalformed, "message truncated or malformed string");
   check = decodeChecked(message_, data, size);
   if (!check.ok()) return check;
@@ -407,6 +427,7 @@ MessageCheck RobotStateReader::convert(const robot_state_t& msg, RobotStateInput
   for (int i = 0; i < n; ++i) {
     const auto k = static_cast<std::size_t>(i);
     const int j = joint[k];
+    if (j < 0) continue;  // a locked joint
     out.q[info_.configurationIndex(j)] = msg.q[k];
     out.v[info_.velocityIndex(j)] = msg.qd[k];
     out.tau[j] = msg.tau[k];

@@ -72,6 +72,32 @@ TEST(LcmAllocation, ReceivingFramesInARepeatedOrderDoesNotAllocate) {
   EXPECT_EQ(allocations, 0);
 }
 
+TEST(LcmAllocation, ReceivingTheWholeRobotsFramesIntoAModelWithLockedJointsDoesNotAllocate) {
+  if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
+  const ModelInfo whole = test::paddedHumanInfo(test::humanInfo().nj + 2);
+  const ModelInfo model = test::lockedHumanInfo(2);
+  std::mt19937 rng(33);
+  std::vector<std::vector<std::uint8_t>> frames;
+  for (int k = 0; k < 20; ++k) {
+    reference_frame_t msg;
+    fillReferenceFrame(whole, test::randomFrame(whole, rng, 0.01 * k), 10000 * k, k, msg);
+    frames.push_back(test::encoded(msg));
+  }
+  ReferenceFrameReader reader(model);
+  ReferenceInput input(model);
+  ASSERT_TRUE(reader.read(frames[0].data(), frames[0].size(), input).ok());  // warm-up: names cached
+  long allocations = 0;
+  int accepted = 0;
+  {
+    Counting counting;
+    for (std::size_t k = 1; k < frames.size(); ++k)
+      accepted += reader.read(frames[k].data(), frames[k].size(), input).ok() ? 1 : 0;
+    allocations = countedAllocations();
+  }
+  EXPECT_EQ(accepted, 19);
+  EXPECT_EQ(allocations, 0);
+}
+
 TEST(LcmAllocation, ReceivingRobotStatesDoesNotAllocate) {
   if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
   const ModelInfo& info = test::humanInfo();

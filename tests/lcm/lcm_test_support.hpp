@@ -54,6 +54,14 @@ inline ModelInfo paddedHumanInfo(int nj) {
   return info;
 }
 
+/// The human figure's ModelInfo as the model of a robot with @p locked more joints, welded:
+/// the extra joints of paddedHumanInfo(nj + locked) are its locked_joint_names.
+inline ModelInfo lockedHumanInfo(int locked) {
+  ModelInfo info = humanInfo();
+  for (int k = 0; k < locked; ++k) info.locked_joint_names.push_back("extra_finger_joint_" + std::to_string(k));
+  return info;
+}
+
 /// A random valid reference frame (unit quaternion, joints within limits).
 inline ReferenceFrame randomFrame(const ModelInfo& info, std::mt19937& rng, double time_s) {
   ReferenceFrame frame(info.nq, info.nv);

@@ -124,6 +124,77 @@ TEST(ReferenceFrameMessage, JointNamesInAnyOrderMapToTheModelJoints) {
   }
 }
 
+TEST(ReferenceFrameMessage, AStreamForTheWholeRobotFeedsAModelWithLockedJoints) {
+  // The robot has two joints more than the model, which welds them (--lock-joints); they
+  // come last in the robot's order, so the model's coordinates are the robot's first ones.
+  const ModelInfo whole = test::paddedHumanInfo(humanInfo().nj + 2);
+  const ModelInfo model = test::lockedHumanInfo(2);
+  std::mt19937 rng(5);
+  ReferenceFrameReader reader(model);
+  ReferenceInput input(model);
+  for (int k = 0; k < 4; ++k) {
+    const ReferenceFrame full = randomFrame(whole, rng, 0.1 * k);
+    reference_frame_t msg;
+    fillReferenceFrame(whole, full, 100000 * k, k, msg);  // utime in µs: time_s 0.1 k
+    if (k % 2 == 1) permuteJoints(msg, shuffledOrder(whole.nj, 7u + static_cast<unsigned>(k)));
+    const auto bytes = encoded(msg);
+    const MessageCheck check = reader.read(bytes.data(), bytes.size(), input);
+    ASSERT_TRUE(check.ok()) << k << ": " << check.reason;
+    ReferenceFrame expected(model.nq, model.nv);
+    expected.time_s = full.time_s;
+    expected.q = full.q.head(model.nq);
+    expected.v = full.v.head(model.nv);
+    expected.vdot = full.vdot.head(model.nv);
+    expectFramesEqual(input.frame, expected, true);
+  }
+  // The model's joints alone are a whole message too.
+  const ReferenceFrame own = randomFrame(model, rng, 1.0);
+  reference_frame_t msg;
+  fillReferenceFrame(model, own, 1000000, 9, msg);
+  auto bytes = encoded(msg);
+  ASSERT_TRUE(reader.read(bytes.data(), bytes.size(), input).ok());
+  expectFramesEqual(input.frame, own, true);
+  // A locked joint does not stand in for a model joint; nor is it given twice; nor may the
+  // robot have more joints than the model and its locked ones.
+  const ReferenceFrame full = randomFrame(whole, rng, 2.0);
+  fillReferenceFrame(whole, full, 3000, 10, msg);
+  reference_frame_t missing = msg;
+  missing.joint_names.erase(missing.joint_names.begin());
+  missing.q.erase(missing.q.begin());
+  missing.qd.erase(missing.qd.begin());
+  missing.qdd.erase(missing.qdd.begin());
+  missing.num_joints -= 1;
+  bytes = encoded(missing);
+  EXPECT_EQ(reader.read(bytes.data(), bytes.size(), input).error, MessageError::kWrongJointCount);
+  reference_frame_t twice = msg;
+  twice.joint_names[static_cast<std::size_t>(model.nj)] = twice.joint_names[static_cast<std::size_t>(model.nj) + 1];
+  bytes = encoded(twice);
+  const MessageCheck duplicate = reader.read(bytes.data(), bytes.size(), input);
+  EXPECT_EQ(duplicate.error, MessageError::kDuplicateJoint);
+  EXPECT_EQ(duplicate.index, model.nj + 1);
+  // The names cached from a longer message do not vouch for a shorter one that starts alike.
+  reference_frame_t longer = msg;
+  std::vector<int> locked_first{model.nj, model.nj + 1};
+  for (int j = 0; j < model.nj; ++j) locked_first.push_back(j);
+  permuteJoints(longer, locked_first);
+  bytes = encoded(longer);
+  ASSERT_TRUE(reader.read(bytes.data(), bytes.size(), input).ok());
+  reference_frame_t shorter = longer;
+  for (auto* values : {&shorter.q, &shorter.qd, &shorter.qdd}) values->resize(static_cast<std::size_t>(model.nj));
+  shorter.joint_names.resize(static_cast<std::size_t>(model.nj));
+  shorter.num_joints = model.nj;
+  bytes = encoded(shorter);
+  EXPECT_EQ(reader.read(bytes.data(), bytes.size(), input).error, MessageError::kWrongJointCount);
+  fillReferenceFrame(model, own, 1000000, 12, msg);
+  bytes = encoded(msg);
+  ASSERT_TRUE(reader.read(bytes.data(), bytes.size(), input).ok());
+  const ModelInfo larger = test::paddedHumanInfo(humanInfo().nj + 3);
+  fillReferenceFrame(larger, randomFrame(larger, rng, 3.0), 4000, 11, msg);
+  bytes = encoded(msg);
+  EXPECT_EQ(reader.read(bytes.data(), bytes.size(), input).error, MessageError::kWrongJointCount);
+  expectFramesEqual(input.frame, own, true);  // every rejection left the last good frame
+}
+
 TEST(ReferenceFrameMessage, TaskTargetAndContactHintsAreValidatedAndMapped) {
   const ModelInfo& info = humanInfo();
   std::mt19937 rng(4);
@@ -405,6 +476,25 @@ TEST(RobotStateMessage, RoundTripsAndMapsShuffledNames) {
     EXPECT_EQ(input.v, v);
     EXPECT_EQ(input.tau, tau);
   }
+}
+
+TEST(RobotStateMessage, AStateOfTheWholeRobotFeedsAModelWithLockedJoints) {
+  const ModelInfo whole = test::paddedHumanInfo(humanInfo().nj + 2);
+  const ModelInfo model = test::lockedHumanInfo(2);
+  std::mt19937 rng(9);
+  RobotStateReader reader(model);
+  RobotStateInput input(model);
+  Eigen::VectorXd q, v;
+  randomState(whole, rng, 1.0, q, v);
+  const Eigen::VectorXd tau = Eigen::VectorXd::LinSpaced(whole.nj, -50.0, 50.0);
+  robot_state_t msg;
+  fillRobotState(whole, 1000, q, v, &tau, msg);
+  const auto bytes = encoded(msg);
+  const MessageCheck check = reader.read(bytes.data(), bytes.size(), input);
+  ASSERT_TRUE(check.ok()) << check.reason;
+  EXPECT_TRUE(input.q.tail(model.nj) == q.segment(7, model.nj));
+  EXPECT_EQ(input.v, v.head(model.nv));
+  EXPECT_EQ(input.tau, tau.head(model.nj));
 }
 
 TEST(RobotStateMessage, EveryRejectionLeavesTheOutputUnchanged) {

@@ -55,6 +55,7 @@ struct CommandInbox {
         return;
       }
       const int j = names.indices()[i];
+      if (j < 0) continue;  // a joint the model locks
       scratch[j] = t;
       scratch_q[j] = p;
       scratch_qd[j] = w;

@@ -110,6 +110,7 @@ struct Listener {
     for (std::size_t i = 0; i < n; ++i) {
       const double tau = command.tau[i];
       const int j = names.indices()[i];
+      if (j < 0) continue;  // a joint the model locks
       const double limit = info.tau_max[j];
       if (!std::isfinite(tau)) {
         non_finite = true;

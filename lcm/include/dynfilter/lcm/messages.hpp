@@ -73,22 +73,28 @@ struct MessageCheck {
 
 /// Maps the joint names of a message to the model's joint indices. The last successful
 /// mapping is cached: names equal to the previous message's cost one string comparison
-/// each and no allocation.
+/// each and no allocation. A message names every joint of the model once, in any order,
+/// and may also name joints the model has locked (ModelInfo::locked_joint_names): a stream
+/// for the whole robot feeds a model with some joints welded; their values are not read.
 class JointNameMap {
  public:
   explicit JointNameMap(const ModelInfo& info);
 
-  /// Maps names[0..count). On success indices()[i] is the model joint of names[i].
-  /// Fails with kWrongJointCount, kBadCount, kUnknownJoint or kDuplicateJoint.
+  /// Maps names[0..count). On success indices()[i] is the model joint of names[i], or −1
+  /// for a locked joint. Fails with kWrongJointCount, kBadCount, kUnknownJoint or
+  /// kDuplicateJoint.
   MessageCheck map(const std::vector<std::string>& names, int count);
-  /// Model joint index of each message entry after a successful map() (dim nj).
+  /// Model joint index of each message entry after a successful map() (first count used).
   const std::vector<int>& indices() const { return indices_; }
+  /// Most entries a message may have: the model's joints and the joints it locks.
+  int maxCount() const { return nj_ + locked_; }
 
  private:
   int nj_;
+  int locked_ = 0;
   std::unordered_map<std::string, int> by_name_;
   std::vector<std::string> cached_names_;
-  bool cache_valid_ = false;
+  int cached_count_ = -1;  // entries of the cached names; −1: none yet
   std::vector<int> indices_, scratch_;
   std::vector<unsigned char> seen_;
 };
