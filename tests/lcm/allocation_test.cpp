@@ -29,6 +29,20 @@ long countedAllocations() { return alloc::g_core_new + alloc::g_core_malloc; }
 namespace dynfilter::messages {
 namespace {
 
+// Reads frames[0] for a model of @p info (its names cached), then counts the heap
+// allocations of reading the others; @p accepted counts those read without error.
+long allocationsAfterTheFirst(const ModelInfo& info, const std::vector<std::vector<std::uint8_t>>& frames,
+                              int& accepted) {
+  ReferenceFrameReader reader(info);
+  ReferenceInput input(info);
+  EXPECT_TRUE(reader.read(frames[0].data(), frames[0].size(), input).ok());
+  accepted = 0;
+  Counting counting;
+  for (std::size_t k = 1; k < frames.size(); ++k)
+    accepted += reader.read(frames[k].data(), frames[k].size(), input).ok() ? 1 : 0;
+  return countedAllocations();
+}
+
 TEST(LcmAllocation, ReceivingFramesInARepeatedOrderDoesNotAllocate) {
   if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
   const ModelInfo& info = test::humanInfo();
@@ -55,47 +69,25 @@ TEST(LcmAllocation, ReceivingFramesInARepeatedOrderDoesNotAllocate) {
       bad = test::encoded(shuffled);
     }
   }
-  ReferenceFrameReader reader(info);
-  ReferenceInput input(info);
-  ASSERT_TRUE(reader.read(frames[0].data(), frames[0].size(), input).ok());  // warm-up: names cached
-  long allocations = 0;
+  frames.push_back(bad);  // a rejected frame does not allocate either
   int accepted = 0;
-  {
-    Counting counting;
-    for (std::size_t k = 1; k < frames.size(); ++k)
-      accepted += reader.read(frames[k].data(), frames[k].size(), input).ok() ? 1 : 0;
-    // A rejected frame does not allocate either.
-    accepted += reader.read(bad.data(), bad.size(), input).ok() ? 1 : 0;
-    allocations = countedAllocations();
-  }
+  EXPECT_EQ(allocationsAfterTheFirst(info, frames, accepted), 0);
   EXPECT_EQ(accepted, 49);
-  EXPECT_EQ(allocations, 0);
 }
 
 TEST(LcmAllocation, ReceivingTheWholeRobotsFramesIntoAModelWithLockedJointsDoesNotAllocate) {
   if (!test::allocations::kCounting) GTEST_SKIP() << "allocations are not counted under AddressSanitizer";
-  const ModelInfo whole = test::paddedHumanInfo(test::humanInfo().nj + 2);
-  const ModelInfo model = test::lockedHumanInfo(2);
+  const test::LockedPair pair;
   std::mt19937 rng(33);
   std::vector<std::vector<std::uint8_t>> frames;
   for (int k = 0; k < 20; ++k) {
     reference_frame_t msg;
-    fillReferenceFrame(whole, test::randomFrame(whole, rng, 0.01 * k), 10000 * k, k, msg);
+    fillReferenceFrame(pair.whole, test::randomFrame(pair.whole, rng, 0.01 * k), 10000 * k, k, msg);
     frames.push_back(test::encoded(msg));
   }
-  ReferenceFrameReader reader(model);
-  ReferenceInput input(model);
-  ASSERT_TRUE(reader.read(frames[0].data(), frames[0].size(), input).ok());  // warm-up: names cached
-  long allocations = 0;
   int accepted = 0;
-  {
-    Counting counting;
-    for (std::size_t k = 1; k < frames.size(); ++k)
-      accepted += reader.read(frames[k].data(), frames[k].size(), input).ok() ? 1 : 0;
-    allocations = countedAllocations();
-  }
+  EXPECT_EQ(allocationsAfterTheFirst(pair.model, frames, accepted), 0);
   EXPECT_EQ(accepted, 19);
-  EXPECT_EQ(allocations, 0);
 }
 
 TEST(LcmAllocation, ReceivingRobotStatesDoesNotAllocate) {

@@ -62,6 +62,13 @@ inline ModelInfo lockedHumanInfo(int locked) {
   return info;
 }
 
+/// A robot with two joints more than the model of it, which locks them: they come last in
+/// the robot's order, so the model's coordinates are the robot's first ones.
+struct LockedPair {
+  ModelInfo whole = paddedHumanInfo(humanInfo().nj + 2);
+  ModelInfo model = lockedHumanInfo(2);
+};
+
 /// A random valid reference frame (unit quaternion, joints within limits).
 inline ReferenceFrame randomFrame(const ModelInfo& info, std::mt19937& rng, double time_s) {
   ReferenceFrame frame(info.nq, info.nv);

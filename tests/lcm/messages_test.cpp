@@ -106,47 +106,44 @@ TEST(ReferenceFrameMessage, FixedBaseModelIgnoresTheBase) {
   EXPECT_EQ(reader.convert(msg, input).error, MessageError::kNonFinite);
 }
 
+// Six frames of a robot described by @p sender, shuffled, the same shuffle again (cached),
+// another, in its order, ..., read by @p reader of a model of it: the same joints, or fewer
+// with the others locked and last, so that the model's coordinates are the sender's first.
+void expectFramesMapInAnyOrder(const ModelInfo& sender, const ModelInfo& model, ReferenceFrameReader& reader,
+                               ReferenceInput& input, std::mt19937& rng) {
+  for (int k = 0; k < 6; ++k) {
+    const ReferenceFrame frame = randomFrame(sender, rng, 0.1 * k);
+    reference_frame_t msg;
+    fillReferenceFrame(sender, frame, 100000 * k, k, msg);  // utime in µs: time_s 0.1 k
+    if (k % 3 != 2) permuteJoints(msg, shuffledOrder(sender.nj, k < 3 ? 11u : 12u));
+    const auto bytes = encoded(msg);
+    const MessageCheck check = reader.read(bytes.data(), bytes.size(), input);
+    ASSERT_TRUE(check.ok()) << k << ": " << check.reason;
+    ReferenceFrame expected(model.nq, model.nv);
+    expected.time_s = frame.time_s;
+    expected.q = frame.q.head(model.nq);
+    expected.v = frame.v.head(model.nv);
+    expected.vdot = frame.vdot.head(model.nv);
+    expectFramesEqual(input.frame, expected, true);
+  }
+}
+
 TEST(ReferenceFrameMessage, JointNamesInAnyOrderMapToTheModelJoints) {
   const ModelInfo& info = humanInfo();
   std::mt19937 rng(3);
   ReferenceFrameReader reader(info);
   ReferenceInput input(info);
-  for (int k = 0; k < 6; ++k) {
-    const ReferenceFrame frame = randomFrame(info, rng, 0.1 * k);
-    reference_frame_t msg;
-    fillReferenceFrame(info, frame, 100000 * k, k, msg);
-    // Orders: shuffled, the same shuffle again (cached), another, model order, ...
-    if (k % 3 != 2) permuteJoints(msg, shuffledOrder(info.nj, k < 3 ? 11u : 12u));
-    const auto bytes = encoded(msg);
-    const MessageCheck check = reader.read(bytes.data(), bytes.size(), input);
-    ASSERT_TRUE(check.ok()) << k << ": " << check.reason;
-    expectFramesEqual(input.frame, frame, true);
-  }
+  expectFramesMapInAnyOrder(info, info, reader, input, rng);
 }
 
 TEST(ReferenceFrameMessage, AStreamForTheWholeRobotFeedsAModelWithLockedJoints) {
-  // The robot has two joints more than the model, which welds them (--lock-joints); they
-  // come last in the robot's order, so the model's coordinates are the robot's first ones.
-  const ModelInfo whole = test::paddedHumanInfo(humanInfo().nj + 2);
-  const ModelInfo model = test::lockedHumanInfo(2);
+  const test::LockedPair pair;  // the model welds two of the robot's joints (--lock-joints)
+  const ModelInfo& whole = pair.whole;
+  const ModelInfo& model = pair.model;
   std::mt19937 rng(5);
   ReferenceFrameReader reader(model);
   ReferenceInput input(model);
-  for (int k = 0; k < 4; ++k) {
-    const ReferenceFrame full = randomFrame(whole, rng, 0.1 * k);
-    reference_frame_t msg;
-    fillReferenceFrame(whole, full, 100000 * k, k, msg);  // utime in µs: time_s 0.1 k
-    if (k % 2 == 1) permuteJoints(msg, shuffledOrder(whole.nj, 7u + static_cast<unsigned>(k)));
-    const auto bytes = encoded(msg);
-    const MessageCheck check = reader.read(bytes.data(), bytes.size(), input);
-    ASSERT_TRUE(check.ok()) << k << ": " << check.reason;
-    ReferenceFrame expected(model.nq, model.nv);
-    expected.time_s = full.time_s;
-    expected.q = full.q.head(model.nq);
-    expected.v = full.v.head(model.nv);
-    expected.vdot = full.vdot.head(model.nv);
-    expectFramesEqual(input.frame, expected, true);
-  }
+  expectFramesMapInAnyOrder(whole, model, reader, input, rng);
   // The model's joints alone are a whole message too.
   const ReferenceFrame own = randomFrame(model, rng, 1.0);
   reference_frame_t msg;
@@ -479,22 +476,21 @@ TEST(RobotStateMessage, RoundTripsAndMapsShuffledNames) {
 }
 
 TEST(RobotStateMessage, AStateOfTheWholeRobotFeedsAModelWithLockedJoints) {
-  const ModelInfo whole = test::paddedHumanInfo(humanInfo().nj + 2);
-  const ModelInfo model = test::lockedHumanInfo(2);
-  std::mt19937 rng(9);
-  RobotStateReader reader(model);
-  RobotStateInput input(model);
+  const test::LockedPair pair;
+  RobotStateReader reader(pair.model);
+  RobotStateInput input(pair.model);
   Eigen::VectorXd q, v;
-  randomState(whole, rng, 1.0, q, v);
-  const Eigen::VectorXd tau = Eigen::VectorXd::LinSpaced(whole.nj, -50.0, 50.0);
+  std::mt19937 rng(9);
+  randomState(pair.whole, rng, 1.0, q, v);
+  const Eigen::VectorXd tau = Eigen::VectorXd::LinSpaced(pair.whole.nj, -50.0, 50.0);
   robot_state_t msg;
-  fillRobotState(whole, 1000, q, v, &tau, msg);
+  fillRobotState(pair.whole, 1000, q, v, &tau, msg);
   const auto bytes = encoded(msg);
   const MessageCheck check = reader.read(bytes.data(), bytes.size(), input);
   ASSERT_TRUE(check.ok()) << check.reason;
-  EXPECT_TRUE(input.q.tail(model.nj) == q.segment(7, model.nj));
-  EXPECT_EQ(input.v, v.head(model.nv));
-  EXPECT_EQ(input.tau, tau.head(model.nj));
+  EXPECT_TRUE(input.q.tail(pair.model.nj) == q.segment(7, pair.model.nj));
+  EXPECT_EQ(input.v, v.head(pair.model.nv));
+  EXPECT_EQ(input.tau, tau.head(pair.model.nj));
 }
 
 TEST(RobotStateMessage, EveryRejectionLeavesTheOutputUnchanged) {
