@@ -189,6 +189,7 @@ MessageCheck JointNameMap::map(const std::vector<std::string>& names, int count)
   }
 
   std::fill(seen_.begin(), seen_.end(), 0);
+  int locked = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const auto it = by_name_.find(names[i]);
     if (it == by_name_.end())
@@ -197,13 +198,12 @@ MessageCheck JointNameMap::map(const std::vector<std::string>& names, int count)
     if (seen_[j] != 0)
       return fail(MessageError::kDuplicateJoint, "joint name given twice", static_cast<int>(i));
     seen_[j] = 1;
-    scratch_[i] = it->second < nj_ ? it->second : -1;
+    const bool is_locked = it->second >= nj_;
+    locked += is_locked ? 1 : 0;
+    scratch_[i] = is_locked ? -1 : it->second;
   }
-  // Every name distinct and known: the model's joints are all there when the locked ones
-  // leave exactly nj entries.
-  int model_joints = 0;
-  for (int j = 0; j < nj_; ++j) model_joints += seen_[static_cast<std::size_t>(j)];
-  if (model_joints != nj_) return fail(MessageError::kWrongJointCount, "joint count differs from the model's");
+  // Distinct known names: every model joint is present exactly when the rest are locked ones.
+  if (count - locked != nj_) return fail(MessageError::kWrongJointCount, "joint count differs from the model's");
   indices_.swap(scratch_);
   for (std::size_t i = 0; i < n; ++i) cached_names_[i] = names[i];  // allocates only for new names
   cached_count_ = count;
