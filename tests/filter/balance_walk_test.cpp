@@ -14,6 +14,7 @@
 
 #include "dynfilter/core/dynamics_filter.hpp"
 #include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/io/offline_run.hpp"
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
 #include "dynfilter/proxqp/proxqp_solver.hpp"
@@ -51,11 +52,20 @@ struct WalkWindow {
   bool balance = false;
 };
 
+bool isLegJoint(const std::string& name) {
+  return name.find("hip") != std::string::npos || name.find("knee") != std::string::npos ||
+         name.find("ankle") != std::string::npos;
+}
+
 // The CMU walk's first @p seconds in the QP mode with the defaults, as dynfilter-offline
 // runs it (480 Hz, the clip's future in the preview). windows[0] holds the ticks to
 // @p split_s, windows[1] all of them: one run (the clean-up of the whole clip is what takes
-// the time, a few minutes under the sanitizers) checks both.
-std::array<WalkWindow, 2> runWalk(double seconds, double split_s, bool cleanup) {
+// the time, a few minutes under the sanitizers) checks both. With @p filtered, the filtered
+// state of every tick to @p filtered_s is appended to it as a frame (q and v after the tick,
+// its v̇, at the tick's time: what dynfilter-offline --every-tick writes).
+std::array<WalkWindow, 2> runWalk(double seconds, double split_s, bool cleanup,
+                                  std::vector<ReferenceFrame>* filtered = nullptr,
+                                  double filtered_s = 0.0) {
   auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const ModelInfo& info = model->info();
   const auto frames = walkStart(*model, seconds, cleanup);
@@ -76,6 +86,13 @@ std::array<WalkWindow, 2> runWalk(double seconds, double split_s, bool cleanup) 
         filter.previewFrame(frames[previewed++]);
       interpolateReference(true, frames[segment], frames[segment + 1], t, ref);
       const FilterOutput& out = filter.step(ref);
+      if (filtered != nullptr && t <= filtered_s + 1e-9) {
+        ReferenceFrame& f = filtered->emplace_back(info.nq, info.nv);
+        f.time_s = t;
+        f.q = out.q;
+        f.v = out.v;
+        f.vdot = out.vdot;
+      }
       for (int k = t <= split_s + 1e-9 ? 0 : 1; k < 2; ++k) {
         WalkWindow& w = windows[static_cast<std::size_t>(k)];
         ++ticks[k];
@@ -85,10 +102,7 @@ std::array<WalkWindow, 2> runWalk(double seconds, double split_s, bool cleanup) 
         w.max_penetration_m = std::max(w.max_penetration_m, out.max_penetration_m);
         base_sq[k] += out.tracking_error.head<3>().squaredNorm();
         for (int j = 0; j < info.nj; ++j) {
-          const std::string& name = info.joint_names[static_cast<std::size_t>(j)];
-          if (name.find("hip") == std::string::npos && name.find("knee") == std::string::npos &&
-              name.find("ankle") == std::string::npos)
-            continue;
+          if (!isLegJoint(info.joint_names[static_cast<std::size_t>(j)])) continue;
           legs_sq[k] += std::pow(out.tracking_error[info.velocityIndex(j)], 2);
           ++legs_n[k];
         }
@@ -109,7 +123,8 @@ std::array<WalkWindow, 2> runWalk(double seconds, double split_s, bool cleanup) 
 // The stance before the first step (to 1.0 s), then through the first steps (to 1.85 s;
 // dynfilter-offline with main's filter re-seeded at 1.47 s on this clip once).
 TEST(Balance, TheCmuWalksStanceAndFirstStepsWithTheDefaultsNeedNoReseed) {
-  const std::array<WalkWindow, 2> windows = runWalk(1.85, 1.0, /*cleanup=*/true);
+  std::vector<ReferenceFrame> filtered;
+  const std::array<WalkWindow, 2> windows = runWalk(1.85, 1.0, /*cleanup=*/true, &filtered, 1.2);
   {
     SCOPED_TRACE("stance, 0-1.0 s");
     const WalkWindow& w = windows[0];
@@ -146,6 +161,39 @@ TEST(Balance, TheCmuWalksStanceAndFirstStepsWithTheDefaultsNeedNoReseed) {
     // re-engaged as they moved into the ground, the left sole landing at 1.0 s sank 5.1 mm and
     // a right toe scuff at 1.13 s 5.8 mm (and held there for 0.1 s).
     EXPECT_LE(w.max_penetration_m, 0.002);
+  }
+  {
+    // A motion that is already consistent — the filter's own output, every tick with its q, v
+    // and v̇ — should come back nearly unchanged; it does not yet (docs/balance.md §42). 0-1.2 s
+    // holds the first lift-off: from 0.775 s the reference's heel rises while the filter holds
+    // the sole flat until its tilt passes balance.roll_tilt_rad (0.1), and the left knee lags by
+    // up to 0.12 rad. Measured (DART, Release): legs 0.060 rad RMS, 0.004 before the lift-off;
+    // 0.031 / 0.016 with roll_tilt_rad 0.05 / 0.02 (not the default: the G1's walk and the
+    // jump's landings sink with it). The bound guards what holds today.
+    SCOPED_TRACE("the filter's own output filtered again, 0-1.2 s");
+    auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
+    const ModelInfo& info = model->info();
+    io::ReferenceMotion motion;
+    motion.frames = filtered;
+    const double dt = filtered[1].time_s - filtered[0].time_s;
+    io::OfflineRunOptions run;
+    run.tick_hz = 1.0 / dt;
+    double legs_sq = 0.0;
+    long legs_n = 0;
+    std::uint64_t reseeds = 0;
+    io::runOffline(*model, test::qpDefaults(dt), motion, run, qp_engines::factory(QpSolverSettings{}.engine),
+                   [&](const io::OfflineTick& tick) {
+                     if (tick.output->status & kStatusReseeded) ++reseeds;
+                     for (int j = 0; j < info.nj; ++j) {
+                       if (!isLegJoint(info.joint_names[static_cast<std::size_t>(j)])) continue;
+                       legs_sq += std::pow(tick.output->tracking_error[info.velocityIndex(j)], 2);
+                       ++legs_n;
+                     }
+                   });
+    const double legs_rms = std::sqrt(legs_sq / static_cast<double>(legs_n));
+    RecordProperty("refiltered_legs_rms_rad", std::to_string(legs_rms));
+    EXPECT_EQ(reseeds, 0u);
+    EXPECT_LE(legs_rms, 0.075);
   }
 }
 
