@@ -112,7 +112,7 @@ int main(int argc, char** argv) {
   std::string reference_path, output_path, model_path = DYNFILTER_DEFAULT_MODEL, config_path;
   std::string backend = "dart", mode;
   double tick_hz = 500.0, slope_deg = NAN, heading_deg = 0.0, friction = NAN;
-  bool every_tick = false, quiet = false, no_progress = false;
+  bool every_tick = false, quiet = false, no_progress = false, skip_extra_columns = false;
   std::string bodies_path, events_path;
   app.add_option("reference", reference_path, "reference motion CSV (see README)")->required();
   app.add_option("-o,--output", output_path, "filtered motion CSV to write")->required();
@@ -134,6 +134,9 @@ int main(int argc, char** argv) {
   app.add_option("--slope-heading-deg", heading_deg, "direction the ground descends (deg)");
   app.add_option("--friction", friction, "ground friction coefficient, overrides the config");
   app.add_flag("--every-tick", every_tick, "write every filter tick, not only reference frames");
+  app.add_flag("--skip-extra-columns", skip_extra_columns,
+               "skip the reference's columns that are not part of its format instead of rejecting "
+               "the file (e.g. a filtered motion, this tool's own output, filtered again)");
   app.add_flag("--no-progress", no_progress, "no progress bar");
   app.add_option("--bodies-csv", bodies_path,
                  "also write every link's world position, reference and filtered, per row "
@@ -159,7 +162,9 @@ int main(int argc, char** argv) {
     // The motion is read first (any model of the robot knows its coordinates): a slope
     // given on the command line passes under the motion's first base position.
     const auto coordinates = makeModel(backend, robot, ModelOptions{});
-    io::ReferenceMotion motion = io::readReferenceMotion(reference_path, coordinates->info());
+    io::ReferenceReadOptions read_options;
+    read_options.allow_extra_columns = skip_extra_columns;
+    io::ReferenceMotion motion = io::readReferenceMotion(reference_path, coordinates->info(), read_options);
     if (!motion.ignored_columns.empty()) {
       std::string names;
       for (const std::string& c : motion.ignored_columns) names += (names.empty() ? "" : ", ") + c;
