@@ -181,9 +181,10 @@ void bindMotion(py::module_& m) {
            "Writes time, base pose and joint positions (%.17g) as dynfilter-bvh2ref does.");
 
   m.def("read_reference",
-        [](const std::string& path, const Model& model, int smoothing_window) {
+        [](const std::string& path, const Model& model, int smoothing_window, bool skip_extra_columns) {
           io::ReferenceReadOptions options;
           options.smoothing_window = smoothing_window;
+          options.allow_extra_columns = skip_extra_columns;
           Reference r;
           r.motion = io::readReferenceMotion(path, model.engine->info(), options);
           r.nq = model.engine->nq();
@@ -191,8 +192,11 @@ void bindMotion(py::module_& m) {
           return r;
         },
         py::arg("path"), py::arg("model"), py::arg("smoothing_window") = 7,
+        py::arg("skip_extra_columns") = false,
         "Reads a reference motion CSV as dynfilter-offline does. Raises InputError "
-        "('<file>:<line>:<column>: <reason>').");
+        "('<file>:<line>:<column>: <reason>'). skip_extra_columns: columns outside the "
+        "format are skipped instead of rejected (a filtered motion read back, as "
+        "dynfilter-offline --skip-extra-columns).");
   m.def("make_reference", &makeReference, py::arg("model"), py::arg("time"), py::arg("q"),
         py::arg("v") = std::nullopt, py::arg("vdot") = std::nullopt,
         py::arg("smoothing_window") = 7,

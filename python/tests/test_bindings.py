@@ -108,6 +108,21 @@ def test_arrays_give_the_same_result_as_the_csv(model):
     assert np.array_equal(a["q"], c["q"])
 
 
+def test_a_reference_with_extra_columns_is_rejected_unless_they_are_skipped(model, tmp_path):
+    # The squat with one column outside the format (as a filtered motion has many).
+    lines = SQUAT.read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    extra = lines[:header] + [lines[header] + ",note"] + [line + ",1" for line in lines[header + 1:]]
+    csv = tmp_path / "squat_note.csv"
+    csv.write_text("\n".join(extra) + "\n")
+    with pytest.raises(dynfilter.InputError, match='unknown column "note"'):
+        dynfilter.read_reference(str(csv), model)
+    read = dynfilter.read_reference(str(csv), model, skip_extra_columns=True)
+    plain = dynfilter.read_reference(str(SQUAT), model)
+    for key in ("time", "q", "v", "vdot"):
+        assert np.array_equal(getattr(read, key), getattr(plain, key)), key
+
+
 def test_step_by_step_matches_filter_motion_at_the_frame_rate(model):
     ref = dynfilter.read_reference(str(SQUAT), model)
     rate = 1.0 / (ref.time[1] - ref.time[0])
