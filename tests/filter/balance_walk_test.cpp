@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "dynfilter/core/dynamics_filter.hpp"
-#include "dynfilter/core/lie_group.hpp"
+#include "dynfilter/core/kinematic_tree.hpp"
 #include "dynfilter/io/offline_run.hpp"
 #include "dynfilter/io/reference_cleanup.hpp"
 #include "dynfilter/io/retarget.hpp"
@@ -54,70 +54,59 @@ struct WalkWindow {
   bool balance = false;
 };
 
-bool isLegJoint(const std::string& name) {
-  return name.find("hip") != std::string::npos || name.find("knee") != std::string::npos ||
-         name.find("ankle") != std::string::npos;
-}
-
-// The CMU walk's first @p seconds in the QP mode with the defaults, as dynfilter-offline
-// runs it (480 Hz, the clip's future in the preview). windows[0] holds the ticks to
-// @p split_s, windows[1] all of them: one run (the clean-up of the whole clip is what takes
-// the time, a few minutes under the sanitizers) checks both. With @p filtered, the filtered
-// state of every tick to @p filtered_s is appended to it as a frame (q and v after the tick,
-// its v̇, at the tick's time: what dynfilter-offline --every-tick writes).
+// The CMU walk's first @p seconds in the QP mode with the defaults, run by dynfilter-offline's
+// own loop (io::runOffline: 480 Hz, the clip's future in the preview). windows[0] holds the
+// ticks to @p split_s, windows[1] all of them: one run (the clean-up of the whole clip is what
+// takes the time, a few minutes under the sanitizers) checks both. With @p filtered, the
+// filtered state of every tick to @p filtered_s is appended to it as a frame (q and v after
+// the tick, its v̇, at the tick's time: what dynfilter-offline --every-tick writes).
 std::array<WalkWindow, 2> runWalk(double seconds, double split_s, bool cleanup,
                                   std::vector<ReferenceFrame>* filtered = nullptr,
                                   double filtered_s = 0.0) {
   auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
   const ModelInfo& info = model->info();
-  const auto frames = walkStart(*model, seconds, cleanup);
-  const int substeps = 4;
-  FilterOptions options = test::qpDefaults((frames[1].time_s - frames[0].time_s) / substeps);
-  options.balance.preview_s = 2.0;  // offline: the clip's future
-  DynamicsFilter filter(*model, options, qp_engines::factory(QpSolverSettings{}.engine));
-  filter.reset(frames.front());
-  std::size_t previewed = 0;
-  ReferenceFrame ref(info.nq, info.nv);
+  const std::vector<JointGroup> groups = jointGroupsOf(*model);
+  io::ReferenceMotion motion;
+  motion.frames = walkStart(*model, seconds, cleanup);
+  const double period = motion.frames[1].time_s - motion.frames[0].time_s;
+  io::OfflineRunOptions run;
+  run.tick_hz = 4.0 / period;
+  run.preview_s = 2.0;  // offline: the clip's future
   std::array<WalkWindow, 2> windows;
   std::array<double, 2> legs_sq{}, base_sq{};
   std::array<long, 2> legs_n{}, ticks{};
-  for (std::size_t segment = 0; segment + 1 < frames.size(); ++segment) {
-    for (int s = 0; s < substeps; ++s) {
-      const double t = frames[segment].time_s + s * options.dt_s;
-      while (previewed < frames.size() && frames[previewed].time_s <= t + options.balance.preview_s)
-        filter.previewFrame(frames[previewed++]);
-      interpolateReference(true, frames[segment], frames[segment + 1], t, ref);
-      const FilterOutput& out = filter.step(ref);
-      if (filtered != nullptr && t <= filtered_s + 1e-9) {
-        ReferenceFrame& f = filtered->emplace_back(info.nq, info.nv);
-        f.time_s = t;
-        f.q = out.q;
-        f.v = out.v;
-        f.vdot = out.vdot;
-      }
-      for (int k = t <= split_s + 1e-9 ? 0 : 1; k < 2; ++k) {
-        WalkWindow& w = windows[static_cast<std::size_t>(k)];
-        ++ticks[k];
-        w.status_union |= out.status;
-        w.violated_union |= out.qp_violated;
-        w.max_base_residual_n = std::max(w.max_base_residual_n, out.base_residual_n);
-        w.max_penetration_m = std::max(w.max_penetration_m, out.max_penetration_m);
-        base_sq[k] += out.tracking_error.head<3>().squaredNorm();
-        for (int j = 0; j < info.nj; ++j) {
-          if (!isLegJoint(info.joint_names[static_cast<std::size_t>(j)])) continue;
-          legs_sq[k] += std::pow(out.tracking_error[info.velocityIndex(j)], 2);
-          ++legs_n[k];
-        }
-        if (out.status & kStatusReseeded) ++w.reseeds;
-      }
-    }
-  }
+  io::runOffline(*model, test::qpDefaults(period / 4.0), motion, run, qp_engines::factory(QpSolverSettings{}.engine),
+                 [&](const io::OfflineTick& tick) {
+                   const FilterOutput& out = *tick.output;
+                   if (filtered != nullptr && tick.time_s <= filtered_s + 1e-9) {
+                     ReferenceFrame& f = filtered->emplace_back(info.nq, info.nv);
+                     f.time_s = tick.time_s;
+                     f.q = out.q;
+                     f.v = out.v;
+                     f.vdot = out.vdot;
+                   }
+                   for (int k = tick.time_s <= split_s + 1e-9 ? 0 : 1; k < 2; ++k) {
+                     WalkWindow& w = windows[static_cast<std::size_t>(k)];
+                     ++ticks[k];
+                     w.status_union |= out.status;
+                     w.violated_union |= out.qp_violated;
+                     w.max_base_residual_n = std::max(w.max_base_residual_n, out.base_residual_n);
+                     w.max_penetration_m = std::max(w.max_penetration_m, out.max_penetration_m);
+                     base_sq[k] += out.tracking_error.head<3>().squaredNorm();
+                     for (int j = 0; j < info.nj; ++j) {
+                       if (groups[static_cast<std::size_t>(j)] != JointGroup::kLeg) continue;
+                       legs_sq[k] += std::pow(out.tracking_error[info.velocityIndex(j)], 2);
+                       ++legs_n[k];
+                     }
+                     if (out.status & kStatusReseeded) ++w.reseeds;
+                     w.balance = tick.filter->balance() != nullptr;
+                   }
+                 });
   for (std::size_t k = 0; k < 2; ++k) {
     WalkWindow& w = windows[k];
     w.legs_rms = std::sqrt(legs_sq[k] / legs_n[k]);
     w.base_rms = std::sqrt(base_sq[k] / ticks[k]);
     w.weight_n = info.total_mass * kStandardGravity;
-    w.balance = filter.balance() != nullptr;
   }
   return windows;
 }
@@ -176,6 +165,7 @@ TEST(Balance, TheCmuWalksStanceAndFirstStepsWithTheDefaultsNeedNoReseed) {
     ASSERT_GE(filtered.size(), 2u);
     auto model = test::makeModel("dart", urdf::loadUrdfFile(test::humanFigurePath()), ModelOptions{});
     const ModelInfo& info = model->info();
+    const std::vector<JointGroup> groups = jointGroupsOf(*model);
     io::ReferenceMotion motion;
     motion.frames = filtered;
     const double dt = filtered[1].time_s - filtered[0].time_s;
@@ -188,7 +178,7 @@ TEST(Balance, TheCmuWalksStanceAndFirstStepsWithTheDefaultsNeedNoReseed) {
                    [&](const io::OfflineTick& tick) {
                      if (tick.output->status & kStatusReseeded) ++reseeds;
                      for (int j = 0; j < info.nj; ++j) {
-                       if (!isLegJoint(info.joint_names[static_cast<std::size_t>(j)])) continue;
+                       if (groups[static_cast<std::size_t>(j)] != JointGroup::kLeg) continue;
                        legs_sq += std::pow(tick.output->tracking_error[info.velocityIndex(j)], 2);
                        ++legs_n;
                      }
