@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -536,6 +537,37 @@ bool BvhJoint::hasPositionChannels() const {
 
 double BvhMotion::durationS() const {
   return frames.rows() >= 2 ? static_cast<double>(frames.rows() - 1) * frame_time_s : 0.0;
+}
+
+BvhMotion bvhWindow(const BvhMotion& bvh, int first_frame, double start_s, double end_s) {
+  const int n = bvh.frameCount() - first_frame;
+  const double duration_s = n >= 2 ? (n - 1) * bvh.frame_time_s : 0.0;
+  char window[160];
+  std::snprintf(window, sizeof window, "window %g to %g s of %s: ", start_s, end_s, bvh.source.c_str());
+  if (first_frame < 0 || n <= 0)
+    throw std::invalid_argument(std::string(window) + "frame " + std::to_string(first_frame) +
+                                " is not one of its " + std::to_string(bvh.frameCount()) + " frames");
+  if (!std::isfinite(start_s) || start_s < 0.0 || std::isnan(end_s) || end_s <= start_s)
+    throw std::invalid_argument(std::string(window) + "the start must be >= 0 and before the end");
+  // Frame k is at k × frame_time_s; the tolerance keeps a time written with the frames' own
+  // rounding (e.g. 0.0083333 × 120) on its frame.
+  constexpr double kTimeTolerance = 0.01;  // frames
+  const int first = static_cast<int>(std::ceil(start_s / bvh.frame_time_s - kTimeTolerance));
+  const int last = std::isinf(end_s) ? n - 1
+                                     : std::min(n - 1, static_cast<int>(std::floor(end_s / bvh.frame_time_s + kTimeTolerance)));
+  if (first >= n || last - first < 1) {
+    char reason[160];
+    std::snprintf(reason, sizeof reason, "it holds fewer than two frames (the clip lasts %.6g s from frame %d)",
+                  duration_s, first_frame);
+    throw std::invalid_argument(std::string(window) + reason);
+  }
+  BvhMotion out;
+  out.source = bvh.source;
+  out.joints = bvh.joints;
+  out.frame_time_s = bvh.frame_time_s;
+  out.frames = bvh.frames.middleRows(first_frame + first, last - first + 1);
+  out.skipped_frames = bvh.skipped_frames + first_frame + first;
+  return out;
 }
 
 int BvhMotion::findJoint(const std::string& name) const {

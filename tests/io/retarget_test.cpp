@@ -4,9 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -82,6 +85,57 @@ TEST(Retarget, ShippedClipsFrameCountAndTime) {
       ASSERT_EQ(f.vdot.size(), model->info().nv);
       ASSERT_TRUE(f.q.allFinite() && f.v.allFinite() && f.vdot.allFinite());
       ASSERT_NEAR(f.q.segment<4>(3).norm(), 1.0, 1e-12);
+    }
+  }
+}
+
+// A window of a clip (dynfilter-bvh2ref --start-s/--end-s) retargets to the frames of the
+// whole clip's reference in that window: the chain mode is closed-form per frame, so the base's
+// orientation and horizontal position and every joint but the ankles agree; what is calibrated
+// over a clip's frames is the window's own: the base's height moves by the difference of the
+// ground offsets (the lowest sole point), and the ankles by each sole's levelling (its mean
+// tilt over its stance frames).
+TEST(Retarget, AWindowOfAClipRetargetsToTheWholeClipsFramesInIt) {
+  auto model = humanFigure();
+  const Retargeted whole = retargetClip(kClips[0], *model);
+  // 3.9 s is frame 467.99 of the file's rounded frame time (0.0083333 s): still frame 468.
+  const BvhMotion window = bvhWindow(whole.bvh, whole.mapping.skip_frames, 3.9, 6.3);
+  const int first = 468, count = 756 - 468 + 1;
+  ASSERT_EQ(window.frameCount(), count);
+  EXPECT_EQ(window.skipped_frames, whole.bvh.skipped_frames + first);
+  EXPECT_EQ((window.frames - whole.bvh.frames.middleRows(first, count)).cwiseAbs().maxCoeff(), 0.0);
+  RetargetMapping mapping = whole.mapping;
+  mapping.skip_frames = 0;
+  const RetargetResult part = retargetBvh(window, mapping, *model);
+  ASSERT_EQ(static_cast<int>(part.motion.frames.size()), count);
+  EXPECT_DOUBLE_EQ(part.motion.frames[0].time_s, 0.0);
+  const double dz = part.ground_offset_m - whole.result.ground_offset_m;
+  EXPECT_GT(std::abs(dz), 1e-3);  // the window's lowest sole point is not the clip's
+  for (int k = 0; k < count; ++k) {
+    const Eigen::VectorXd& a = part.motion.frames[static_cast<std::size_t>(k)].q;
+    const Eigen::VectorXd& b = whole.result.motion.frames[static_cast<std::size_t>(first + k)].q;
+    ASSERT_LT((a.head<2>() - b.head<2>()).cwiseAbs().maxCoeff(), 1e-12) << "frame " << k;
+    ASSERT_NEAR(a[2] - b[2], dz, 1e-12) << "frame " << k;
+    ASSERT_LT((a.segment<4>(3) - b.segment<4>(3)).cwiseAbs().maxCoeff(), 1e-12) << "frame " << k;
+    for (int j = 0; j < model->info().nj; ++j) {
+      const std::string& name = model->info().joint_names[static_cast<std::size_t>(j)];
+      const double d = std::abs(a[7 + j] - b[7 + j]);
+      if (name.find("ankle") == std::string::npos) {
+        ASSERT_LT(d, 1e-6) << name << ", frame " << k;
+      } else if (k == 0) {
+        EXPECT_GT(d, 1e-3) << name;  // levelled over the window's stance frames
+      }
+    }
+  }
+  // The default window is the whole clip; empty or reversed windows are refused by name.
+  EXPECT_EQ(bvhWindow(whole.bvh, 0, 0.0, std::numeric_limits<double>::infinity()).frameCount(),
+            whole.bvh.frameCount());
+  for (const auto& [start, end] : std::vector<std::pair<double, double>>{{9.0, 10.0}, {2.0, 1.0}, {-1.0, 1.0}}) {
+    try {
+      bvhWindow(whole.bvh, 0, start, end);
+      ADD_FAILURE() << "window " << start << " to " << end << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("131_01_start_walk_stop.bvh"), std::string::npos) << e.what();
     }
   }
 }

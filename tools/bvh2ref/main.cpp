@@ -5,12 +5,14 @@
 //
 //   dynfilter-bvh2ref clip.bvh --mapping m.yaml -o reference.csv [--model urdf]
 //       [--allow-unmapped] [--no-cleanup] [--clamp] [--report report.txt]
+//       [--start-s S] [--end-s E]
 //   dynfilter-bvh2ref clip.bvh --suggest-mapping m.yaml [--model urdf]
 
 #include <cmath>
 #include <cstdio>
 #include <exception>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -38,6 +40,7 @@ int main(int argc, char** argv) {
   std::string bvh_path, mapping_path, out_path, model_path = DYNFILTER_DEFAULT_MODEL;
   std::string backend = "dart", report_path;
   bool clamp = false, allow_unmapped = false, no_cleanup = false;
+  double start_s = 0.0, end_s = std::numeric_limits<double>::infinity();
   app.add_option("bvh", bvh_path, "BVH file")->required();
   std::string suggest_path;
   auto* mapping_opt = app.add_option("--mapping,-m", mapping_path, "mapping YAML");
@@ -55,6 +58,12 @@ int main(int argc, char** argv) {
   app.add_flag("--no-cleanup", no_cleanup,
                "no clean-up (contact schedule, stance feet on the ground, joint limits)");
   app.add_option("--report", report_path, "also write the report to this file");
+  auto* start_opt = app.add_option("--start-s", start_s,
+                                   "retarget the clip from this time on (s; 0 is the first frame the "
+                                   "mapping keeps, after its skip_frames); the reference starts at 0 s");
+  auto* end_opt = app.add_option("--end-s", end_s, "retarget the clip up to this time (s, same clock)");
+  start_opt->excludes(suggest_opt);
+  end_opt->excludes(suggest_opt);
   dynfilter::tools::ModelCli model_cli;
   dynfilter::tools::addModelOptions(app, model_cli);
   CLI11_PARSE(app, argc, argv);
@@ -83,8 +92,12 @@ int main(int argc, char** argv) {
     if (clamp) mapping.clamp_to_limits = true;
     if (allow_unmapped) mapping.allow_unmapped = true;
     auto model = dynfilter::makeModel(backend, dynfilter::tools::loadRobot(model_path, model_cli), {});
-    const dynfilter::io::RetargetResult result =
-        dynfilter::io::retargetBvhFile(bvh_path, mapping, *model);
+    dynfilter::io::BvhReadOptions read;
+    read.length_scale = mapping.length_scale;
+    const dynfilter::io::BvhMotion bvh =
+        dynfilter::io::bvhWindow(dynfilter::io::readBvh(bvh_path, read), mapping.skip_frames, start_s, end_s);
+    mapping.skip_frames = 0;  // the window starts after them
+    const dynfilter::io::RetargetResult result = dynfilter::io::retargetBvh(bvh, mapping, *model);
 
     std::string report;
     char line[512];
@@ -92,7 +105,7 @@ int main(int argc, char** argv) {
     const Eigen::Vector3d p0 = frames.front().q.head<3>(), p1 = frames.back().q.head<3>();
     std::snprintf(line, sizeof line,
                   "%s: %zu frames (BVH frames from %d), %.3f s, %s mode, ground offset %+.4f m\n",
-                  out_path.c_str(), frames.size(), result.first_bvh_frame, frames.back().time_s,
+                  out_path.c_str(), frames.size(), bvh.skipped_frames, frames.back().time_s,
                   mapping.mode == dynfilter::io::RetargetMode::kIk ? "IK" : "chain",
                   result.ground_offset_m);
     report += line;

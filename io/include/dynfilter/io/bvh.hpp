@@ -134,6 +134,15 @@ inline constexpr double kBvhBlendMaxS = 0.25;
 /// @throws std::invalid_argument on invalid @p options.
 BvhMotion readBvh(const std::string& path, const BvhReadOptions& options = {});
 
+/// The part of @p bvh from @p start_s to @p end_s (s, both included), on the clock of its
+/// frames from @p first_frame on (that frame at 0 s, e.g. a mapping's skip_frames): the
+/// frames whose times lie in the window; end_s = infinity: to the last frame. The frames
+/// before the window count in skipped_frames.
+/// @throws std::invalid_argument when first_frame is not a frame of @p bvh, start_s < 0 or
+///         not finite, end_s ≤ start_s, or the window holds fewer than two frames; the
+///         message gives the window and the clip's duration.
+BvhMotion bvhWindow(const BvhMotion& bvh, int first_frame, double start_s, double end_s);
+
 /// Global (world) pose of every joint at frame @p frame, in the BVH's own axes (Y up in the
 /// usual exports), lengths after scaling: X_world[j] maps joint j's frame to the world, its
 /// translation is the joint's position and its linear part the joint's rotation matrix.
