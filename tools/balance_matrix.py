@@ -7,7 +7,8 @@
 
 Cases: walk, jump, kick (level ground, DART), the walk with the ODE backend, played 0.8× and
 1.25× as fast (the reference's time column scaled), on a 10° downhill and a 5° uphill slope
-along its heading, and mirrored left↔right (the BVH mirrored before retargeting). References
+along its heading, mirrored left↔right (the BVH mirrored before retargeting), and its
+straight stretch alone (3.9–6.3 s, retargeted as a clip of its own). References
 come from dynfilter-bvh2ref with its default clean-up. Per case: re-seeding ticks (every
 tick, --events-csv), joint RMS overall and per group, base position RMS against the
 reference as received, the largest per-frame base jump, stance skate, penetration, frames
@@ -20,6 +21,7 @@ import csv
 import math
 import subprocess
 import sys
+from collections import namedtuple
 from pathlib import Path
 
 import numpy as np
@@ -27,19 +29,28 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import paper_results as pr  # noqa: E402
 
+# window: (start, end) in s of the clip (dynfilter-bvh2ref --start-s/--end-s), None: all of it.
+Case = namedtuple("Case", "bvh mapping speed slope backend mirrored window", defaults=(None,))
 WALK = ("131_01_start_walk_stop.bvh", "131_01.yaml")
 CASES = {
-    # name: (bvh, mapping, time scale, slope (deg, + down), backend, mirrored)
-    "walk": (*WALK, 1.0, 0.0, "dart", False),
-    "jump": ("01_01_forward_jumps.bvh", "01_01.yaml", 1.0, 0.0, "dart", False),
-    "kick": ("10_01_soccer_kick.bvh", "10_01.yaml", 1.0, 0.0, "dart", False),
-    "walk_ode": (*WALK, 1.0, 0.0, "ode", False),
-    "walk_0.8x": (*WALK, 0.8, 0.0, "dart", False),
-    "walk_1.25x": (*WALK, 1.25, 0.0, "dart", False),
-    "walk_10_down": (*WALK, 1.0, 10.0, "dart", False),
-    "walk_5_up": (*WALK, 1.0, -5.0, "dart", False),
-    "walk_mirrored": (*WALK, 1.0, 0.0, "dart", True),
+    # name: bvh, mapping, time scale, slope (deg, + down), backend, mirrored[, window]
+    "walk": Case(*WALK, 1.0, 0.0, "dart", False),
+    "jump": Case("01_01_forward_jumps.bvh", "01_01.yaml", 1.0, 0.0, "dart", False),
+    "kick": Case("10_01_soccer_kick.bvh", "10_01.yaml", 1.0, 0.0, "dart", False),
+    "walk_ode": Case(*WALK, 1.0, 0.0, "ode", False),
+    "walk_0.8x": Case(*WALK, 0.8, 0.0, "dart", False),
+    "walk_1.25x": Case(*WALK, 1.25, 0.0, "dart", False),
+    "walk_10_down": Case(*WALK, 1.0, 10.0, "dart", False),
+    "walk_5_up": Case(*WALK, 1.0, -5.0, "dart", False),
+    "walk_mirrored": Case(*WALK, 1.0, 0.0, "dart", True),
+    # The walk's straight stretch alone: five steps along +x with no foot gliding under load.
+    "walk_forward": Case(*WALK, 1.0, 0.0, "dart", False, (3.9, 6.3)),
 }
+
+
+def window_args(case):
+    """dynfilter-bvh2ref's arguments for the case's window of its clip."""
+    return [] if case.window is None else ["--start-s", f"{case.window[0]:g}", "--end-s", f"{case.window[1]:g}"]
 
 
 def mirror_bvh(src, dst):
@@ -91,7 +102,8 @@ def scale_time(src, dst, speed):
 
 def run_case(name, args, build, out):
     pr.MODEL_INFO = build / "tools" / "model_info" / "dynfilter-model-info"
-    bvh, mapping, speed, slope, backend, mirrored = CASES[name]
+    case = CASES[name]
+    bvh, mapping, speed, slope, backend, mirrored = case[:6]
     bvh_path = pr.CMU / bvh
     if mirrored:
         bvh_path = out / f"{name}.bvh"
@@ -103,7 +115,8 @@ def run_case(name, args, build, out):
         mapping_path = out / f"{name}_mapping.yaml"
         mapping_path.write_text(mapping_text + f"\ncleanup: {args.cleanup}\n")
     subprocess.run([str(build / "tools/bvh2ref/dynfilter-bvh2ref"), str(bvh_path), "--mapping",
-                    str(mapping_path), "-o", str(ref), "--report", str(out / f"{name}_bvh2ref.txt")],
+                    str(mapping_path), "-o", str(ref), "--report", str(out / f"{name}_bvh2ref.txt"),
+                    *window_args(case)],
                    check=True, capture_output=True)
     if speed != 1.0:
         scale_time(ref, ref, speed)

@@ -29,14 +29,16 @@ import paper_results as pr  # noqa: E402
 
 
 def reference_of(name, build, out):
-    bvh, mapping, speed, _, _, mirrored = bm.CASES[name]
+    case = bm.CASES[name]
+    bvh, mapping, speed, _, _, mirrored = case[:6]
     bvh_path = pr.CMU / bvh
     if mirrored:
         bvh_path = out / f"{name}.bvh"
         bm.mirror_bvh(pr.CMU / bvh, bvh_path)
     ref = out / f"{name}_reference.csv"
     subprocess.run([str(build / "tools/bvh2ref/dynfilter-bvh2ref"), str(bvh_path), "--mapping",
-                    str(pr.CMU / "mappings" / mapping), "-o", str(ref)], check=True, capture_output=True)
+                    str(pr.CMU / "mappings" / mapping), "-o", str(ref), *bm.window_args(case)],
+                   check=True, capture_output=True)
     if speed != 1.0:
         bm.scale_time(ref, ref, speed)
     return ref
@@ -62,7 +64,7 @@ def perturb(src, dst, seed, noise):
 def run(job):
     name, seed, b, build, config, ref, args, out = job
     pr.MODEL_INFO = build / "tools" / "model_info" / "dynfilter-model-info"
-    _, _, _, slope, backend, _ = bm.CASES[name]
+    slope, backend = bm.CASES[name].slope, bm.CASES[name].backend
     stem = out / f"{name}_s{seed}_b{b}"
     fil, events = Path(f"{stem}.csv"), Path(f"{stem}.events.csv")
     cmd = [str(build / "tools/offline/dynfilter-offline"), str(ref), "-o", str(fil), "--no-progress", "-q",
