@@ -180,19 +180,27 @@ def reference(model: Model, source: Any, smoothing_window: int = 7) -> Reference
 
 
 def retarget(bvh: Union[PathLike, Bvh], mapping: Union[PathLike, RetargetMapping],
-             model: Model, cleanup: bool = True) -> RetargetResult:
+             model: Model, cleanup: bool = True, start_s: Optional[float] = None,
+             end_s: Optional[float] = None) -> RetargetResult:
     """Retargets a BVH clip (path or :class:`Bvh` read with the mapping's length_scale) with
     a mapping (YAML path or :class:`RetargetMapping`) onto ``model`` and, with ``cleanup``
     (dynfilter-bvh2ref's default), cleans it up: contact schedule, stance feet on the
     ground, joints inside their limits (the mapping's ``cleanup`` section).
+    ``start_s``, ``end_s``: only that window of the clip, in seconds after the mapping's
+    skip_frames (dynfilter-bvh2ref --start-s/--end-s); the reference starts at 0 s.
     ``result.reference`` is the :class:`Reference` to filter; ``result.write_csv(path,
     model)`` writes what dynfilter-bvh2ref writes; ``limit_report`` and ``cleanup_report``
     are its report."""
     if not isinstance(mapping, _dynfilter.Mapping):
         mapping = read_mapping(os.fspath(mapping))
     if isinstance(bvh, Bvh):
+        if start_s is not None or end_s is not None:
+            bvh = bvh.window(mapping.skip_frames, 0.0 if start_s is None else start_s,
+                             math.inf if end_s is None else end_s)
+            mapping = mapping.copy()
+            mapping.skip_frames = 0
         return _dynfilter.retarget(bvh, mapping, model, cleanup)
-    return _dynfilter.retarget_file(os.fspath(bvh), mapping, model, cleanup)
+    return _dynfilter.retarget_file(os.fspath(bvh), mapping, model, cleanup, start_s, end_s)
 
 
 def filter_motion(model: Model, reference_motion: Any,

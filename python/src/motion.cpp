@@ -1,5 +1,6 @@
 // Reference motions (CSV or NumPy arrays), BVH motion capture and retargeting.
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -220,6 +221,11 @@ void bindMotion(py::module_& m) {
         return parents;
       })
       .def("duration_s", &io::BvhMotion::durationS)
+      .def("window", &io::bvhWindow, py::arg("first_frame"), py::arg("start_s"),
+           py::arg("end_s") = std::numeric_limits<double>::infinity(),
+           "The frames from start_s to end_s (s, both included; frame first_frame at 0 s, e.g. a "
+           "mapping's skip_frames, which the window's retargeting then takes as 0). Raises "
+           "ValueError on an empty or reversed window.")
       .def("__len__", &io::BvhMotion::frameCount);
   m.def("read_bvh",
         [](const std::string& path, double length_scale, bool skip_first_frame) {
@@ -237,7 +243,9 @@ void bindMotion(py::module_& m) {
       .def_readwrite("skip_frames", &io::RetargetMapping::skip_frames)
       .def_readwrite("clamp_to_limits", &io::RetargetMapping::clamp_to_limits)
       .def_readwrite("smoothing_window", &io::RetargetMapping::smoothing_window)
-      .def_readwrite("allow_unmapped", &io::RetargetMapping::allow_unmapped);
+      .def_readwrite("allow_unmapped", &io::RetargetMapping::allow_unmapped)
+      .def("copy", [](const io::RetargetMapping& mapping) { return mapping; })
+      .def("__copy__", [](const io::RetargetMapping& mapping) { return mapping; });
   m.def("read_mapping", &io::readRetargetMapping, py::arg("path"),
         "Reads a mapping file. Raises InputError naming file, line and column.");
   m.def("suggest_mapping",
@@ -292,12 +300,25 @@ void bindMotion(py::module_& m) {
            "<stem>.stance.csv) as dynfilter-bvh2ref does.");
   m.def("retarget_file",
         [](const std::string& bvh_path, const io::RetargetMapping& mapping, Model& model,
-           bool cleanup) {
-          return retargetClip(io::retargetBvhFile(bvh_path, mapping, *model.engine), mapping,
-                              model, cleanup);
+           bool cleanup, std::optional<double> start_s, std::optional<double> end_s) {
+          if (!start_s && !end_s)
+            return retargetClip(io::retargetBvhFile(bvh_path, mapping, *model.engine), mapping,
+                                model, cleanup);
+          io::BvhReadOptions read;
+          read.length_scale = mapping.length_scale;
+          const io::BvhMotion window =
+              io::bvhWindow(io::readBvh(bvh_path, read), mapping.skip_frames, start_s.value_or(0.0),
+                            end_s.value_or(std::numeric_limits<double>::infinity()));
+          io::RetargetMapping from_window = mapping;
+          from_window.skip_frames = 0;
+          return retargetClip(io::retargetBvh(window, from_window, *model.engine), from_window, model,
+                              cleanup);
         },
         py::arg("bvh_path"), py::arg("mapping"), py::arg("model"), py::arg("cleanup") = true,
-        "Reads bvh_path with the mapping's length scale and retargets it (as dynfilter-bvh2ref).");
+        py::arg("start_s") = std::nullopt, py::arg("end_s") = std::nullopt,
+        "Reads bvh_path with the mapping's length scale and retargets it (as dynfilter-bvh2ref); "
+        "start_s, end_s: only that window (s after the mapping's skip_frames), as "
+        "dynfilter-bvh2ref --start-s/--end-s.");
   m.def("retarget",
         [](const io::BvhMotion& bvh, const io::RetargetMapping& mapping, Model& model, bool cleanup) {
           return retargetClip(io::retargetBvh(bvh, mapping, *model.engine), mapping, model, cleanup);

@@ -95,6 +95,38 @@ def test_retarget_and_filter_equal_bvh2ref_then_offline(tmp_path, model):
     assert_same_table(out_tool, None, out, model)
 
 
+def test_a_window_of_a_clip_retargets_as_bvh2ref_start_end(tmp_path, model):
+    bvh2ref = tool("bvh2ref")
+    walk = CMU / "131_01_start_walk_stop.bvh"
+    mapping_path = CMU / "mappings" / "131_01.yaml"
+    ref_tool = tmp_path / "ref_tool.csv"
+    r = run_tool([bvh2ref, walk, "--mapping", mapping_path, "-o", ref_tool, "--start-s", "3.9", "--end-s", "4.9"])
+    assert r.returncode == 0, r.stderr
+    assert "121 frames (BVH frames from 468)" in r.stdout
+    mapping = dynfilter.read_mapping(str(mapping_path))
+    for result in (dynfilter.retarget(str(walk), mapping, model, start_s=3.9, end_s=4.9),
+                   dynfilter.retarget(dynfilter.read_bvh(str(walk), mapping.length_scale), mapping, model,
+                                      start_s=3.9, end_s=4.9)):
+        ref_py = tmp_path / "ref_py.csv"
+        result.write_csv(str(ref_py), model)
+        assert ref_py.read_text() == ref_tool.read_text()
+        assert (tmp_path / "ref_py.stance.csv").read_text() == (tmp_path / "ref_tool.stance.csv").read_text()
+    kick = dynfilter.read_mapping(str(CMU / "mappings" / "10_01.yaml"))
+    assert kick.skip_frames == 5
+    part = dynfilter.retarget(dynfilter.read_bvh(str(CMU / "10_01_soccer_kick.bvh"), kick.length_scale), kick,
+                              model, cleanup=False, start_s=1.0, end_s=2.0)
+    assert part.first_bvh_frame == 0 and len(part.reference) == 121
+    assert kick.skip_frames == 5  # the caller's mapping is not changed
+    bvh = dynfilter.read_bvh(str(walk))
+    part = bvh.window(2, 1.0, 2.0)
+    assert len(part) == 121 and part.skipped_frames == 2 + 120
+    assert np.array_equal(part.frames, bvh.frames[122:243])
+    with pytest.raises(ValueError, match="131_01_start_walk_stop.bvh"):
+        bvh.window(0, 9.0)
+    r = run_tool([bvh2ref, walk, "--mapping", mapping_path, "-o", tmp_path / "x.csv", "--start-s", "2", "--end-s", "1"])
+    assert r.returncode == 1 and "the start must be >= 0 and before the end" in r.stderr
+
+
 def test_arrays_give_the_same_result_as_the_csv(model):
     ref = dynfilter.read_reference(str(SQUAT), model)
     a = dynfilter.filter_motion(model, ref, mode="paper", max_seconds=1.0)
