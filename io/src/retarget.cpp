@@ -754,6 +754,16 @@ RetargetResult retargetBvhFile(const std::string& bvh_path, const RetargetMappin
   return retargetBvh(readBvh(bvh_path, options), mapping, model);
 }
 
+RetargetResult retargetBvhWindow(const BvhMotion& bvh, const RetargetMapping& mapping,
+                                 IDynamicsModel& model, double start_s, double end_s) {
+  const BvhMotion window = bvhWindow(bvh, mapping.skip_frames, start_s, end_s);
+  RetargetMapping from_window = mapping;
+  from_window.skip_frames = 0;  // the window starts after them
+  RetargetResult result = retargetBvh(window, from_window, model);
+  result.first_bvh_frame = window.skipped_frames - bvh.skipped_frames;
+  return result;
+}
+
 void writeReferenceMotionCsv(const std::string& path, const ModelInfo& info,
                              const ReferenceMotion& motion) {
   std::FILE* file = std::fopen(path.c_str(), "wb");

@@ -194,12 +194,7 @@ def retarget(bvh: Union[PathLike, Bvh], mapping: Union[PathLike, RetargetMapping
     if not isinstance(mapping, _dynfilter.Mapping):
         mapping = read_mapping(os.fspath(mapping))
     if isinstance(bvh, Bvh):
-        if start_s is not None or end_s is not None:
-            bvh = bvh.window(mapping.skip_frames, 0.0 if start_s is None else start_s,
-                             math.inf if end_s is None else end_s)
-            mapping = mapping.copy()
-            mapping.skip_frames = 0
-        return _dynfilter.retarget(bvh, mapping, model, cleanup)
+        return _dynfilter.retarget(bvh, mapping, model, cleanup, start_s, end_s)
     return _dynfilter.retarget_file(os.fspath(bvh), mapping, model, cleanup, start_s, end_s)
 
 

@@ -18,6 +18,8 @@
 namespace dynfilter::python {
 namespace {
 
+constexpr double kToTheEnd = std::numeric_limits<double>::infinity();  // a window's open end
+
 using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 constexpr const char* kArrays = "<arrays>";
 
@@ -221,8 +223,7 @@ void bindMotion(py::module_& m) {
         return parents;
       })
       .def("duration_s", &io::BvhMotion::durationS)
-      .def("window", &io::bvhWindow, py::arg("first_frame"), py::arg("start_s"),
-           py::arg("end_s") = std::numeric_limits<double>::infinity(),
+      .def("window", &io::bvhWindow, py::arg("first_frame"), py::arg("start_s"), py::arg("end_s") = kToTheEnd,
            "The frames from start_s to end_s (s, both included; frame first_frame at 0 s, e.g. a "
            "mapping's skip_frames, which the window's retargeting then takes as 0). Raises "
            "ValueError on an empty or reversed window.")
@@ -243,9 +244,7 @@ void bindMotion(py::module_& m) {
       .def_readwrite("skip_frames", &io::RetargetMapping::skip_frames)
       .def_readwrite("clamp_to_limits", &io::RetargetMapping::clamp_to_limits)
       .def_readwrite("smoothing_window", &io::RetargetMapping::smoothing_window)
-      .def_readwrite("allow_unmapped", &io::RetargetMapping::allow_unmapped)
-      .def("copy", [](const io::RetargetMapping& mapping) { return mapping; })
-      .def("__copy__", [](const io::RetargetMapping& mapping) { return mapping; });
+      .def_readwrite("allow_unmapped", &io::RetargetMapping::allow_unmapped);
   m.def("read_mapping", &io::readRetargetMapping, py::arg("path"),
         "Reads a mapping file. Raises InputError naming file, line and column.");
   m.def("suggest_mapping",
@@ -306,13 +305,9 @@ void bindMotion(py::module_& m) {
                                 model, cleanup);
           io::BvhReadOptions read;
           read.length_scale = mapping.length_scale;
-          const io::BvhMotion window =
-              io::bvhWindow(io::readBvh(bvh_path, read), mapping.skip_frames, start_s.value_or(0.0),
-                            end_s.value_or(std::numeric_limits<double>::infinity()));
-          io::RetargetMapping from_window = mapping;
-          from_window.skip_frames = 0;
-          return retargetClip(io::retargetBvh(window, from_window, *model.engine), from_window, model,
-                              cleanup);
+          return retargetClip(io::retargetBvhWindow(io::readBvh(bvh_path, read), mapping, *model.engine,
+                                                    start_s.value_or(0.0), end_s.value_or(kToTheEnd)),
+                              mapping, model, cleanup);
         },
         py::arg("bvh_path"), py::arg("mapping"), py::arg("model"), py::arg("cleanup") = true,
         py::arg("start_s") = std::nullopt, py::arg("end_s") = std::nullopt,
@@ -320,11 +315,18 @@ void bindMotion(py::module_& m) {
         "start_s, end_s: only that window (s after the mapping's skip_frames), as "
         "dynfilter-bvh2ref --start-s/--end-s.");
   m.def("retarget",
-        [](const io::BvhMotion& bvh, const io::RetargetMapping& mapping, Model& model, bool cleanup) {
-          return retargetClip(io::retargetBvh(bvh, mapping, *model.engine), mapping, model, cleanup);
+        [](const io::BvhMotion& bvh, const io::RetargetMapping& mapping, Model& model, bool cleanup,
+           std::optional<double> start_s, std::optional<double> end_s) {
+          if (!start_s && !end_s)
+            return retargetClip(io::retargetBvh(bvh, mapping, *model.engine), mapping, model, cleanup);
+          return retargetClip(io::retargetBvhWindow(bvh, mapping, *model.engine, start_s.value_or(0.0),
+                                                    end_s.value_or(kToTheEnd)),
+                              mapping, model, cleanup);
         },
         py::arg("bvh"), py::arg("mapping"), py::arg("model"), py::arg("cleanup") = true,
-        "Retargets a clip read with the mapping's length_scale and all frames kept.");
+        py::arg("start_s") = std::nullopt, py::arg("end_s") = std::nullopt,
+        "Retargets a clip read with the mapping's length_scale and all frames kept; start_s, "
+        "end_s: only that window, as retarget_file.");
 }
 
 }  // namespace dynfilter::python

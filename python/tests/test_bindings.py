@@ -115,7 +115,7 @@ def test_a_window_of_a_clip_retargets_as_bvh2ref_start_end(tmp_path, model):
     assert kick.skip_frames == 5
     part = dynfilter.retarget(dynfilter.read_bvh(str(CMU / "10_01_soccer_kick.bvh"), kick.length_scale), kick,
                               model, cleanup=False, start_s=1.0, end_s=2.0)
-    assert part.first_bvh_frame == 0 and len(part.reference) == 121
+    assert part.first_bvh_frame == 5 + 120 and len(part.reference) == 121
     assert kick.skip_frames == 5  # the caller's mapping is not changed
     bvh = dynfilter.read_bvh(str(walk))
     part = bvh.window(2, 1.0, 2.0)

@@ -104,10 +104,9 @@ TEST(Retarget, AWindowOfAClipRetargetsToTheWholeClipsFramesInIt) {
   ASSERT_EQ(window.frameCount(), count);
   EXPECT_EQ(window.skipped_frames, whole.bvh.skipped_frames + first);
   EXPECT_EQ((window.frames - whole.bvh.frames.middleRows(first, count)).cwiseAbs().maxCoeff(), 0.0);
-  RetargetMapping mapping = whole.mapping;
-  mapping.skip_frames = 0;
-  const RetargetResult part = retargetBvh(window, mapping, *model);
+  const RetargetResult part = retargetBvhWindow(whole.bvh, whole.mapping, *model, 3.9, 6.3);
   ASSERT_EQ(static_cast<int>(part.motion.frames.size()), count);
+  EXPECT_EQ(part.first_bvh_frame, first);
   EXPECT_DOUBLE_EQ(part.motion.frames[0].time_s, 0.0);
   const double dz = part.ground_offset_m - whole.result.ground_offset_m;
   EXPECT_GT(std::abs(dz), 1e-3);  // the window's lowest sole point is not the clip's

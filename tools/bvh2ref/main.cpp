@@ -94,12 +94,10 @@ int main(int argc, char** argv) {
     auto model = dynfilter::makeModel(backend, dynfilter::tools::loadRobot(model_path, model_cli), {});
     dynfilter::io::BvhReadOptions read;
     read.length_scale = mapping.length_scale;
-    dynfilter::io::BvhMotion bvh = dynfilter::io::readBvh(bvh_path, read);
-    if (start_opt->count() > 0 || end_opt->count() > 0) {
-      bvh = dynfilter::io::bvhWindow(bvh, mapping.skip_frames, start_s, end_s);
-      mapping.skip_frames = 0;  // the window starts after them
-    }
-    const dynfilter::io::RetargetResult result = dynfilter::io::retargetBvh(bvh, mapping, *model);
+    const dynfilter::io::RetargetResult result =
+        start_opt->count() > 0 || end_opt->count() > 0
+            ? dynfilter::io::retargetBvhWindow(dynfilter::io::readBvh(bvh_path, read), mapping, *model, start_s, end_s)
+            : dynfilter::io::retargetBvhFile(bvh_path, mapping, *model);
 
     std::string report;
     char line[512];
@@ -107,7 +105,7 @@ int main(int argc, char** argv) {
     const Eigen::Vector3d p0 = frames.front().q.head<3>(), p1 = frames.back().q.head<3>();
     std::snprintf(line, sizeof line,
                   "%s: %zu frames (BVH frames from %d), %.3f s, %s mode, ground offset %+.4f m\n",
-                  out_path.c_str(), frames.size(), bvh.skipped_frames + result.first_bvh_frame, frames.back().time_s,
+                  out_path.c_str(), frames.size(), result.first_bvh_frame, frames.back().time_s,
                   mapping.mode == dynfilter::io::RetargetMode::kIk ? "IK" : "chain",
                   result.ground_offset_m);
     report += line;

@@ -210,7 +210,7 @@ struct RetargetResult {
   std::vector<JointLimitReport> limits;  ///< one per model joint, model order
   double ground_offset_m = 0.0;  ///< added to the converted BVH height of the base
   Eigen::Matrix3d axis_conversion = Eigen::Matrix3d::Identity();
-  int first_bvh_frame = 0;   ///< BVH frame of output frame 0 (= skip_frames)
+  int first_bvh_frame = 0;   ///< BVH frame of output frame 0 (skip_frames, or a window's start)
   bool clamped = false;      ///< values were clamped into the limits
   std::vector<std::string> unmapped_joints;  ///< joints between no two mapped links
   std::vector<TargetReport> targets;  ///< IK mode: one per mapped link with a target
@@ -231,6 +231,14 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
 /// readBvh(path, {mapping.length_scale}) then retargetBvh().
 RetargetResult retargetBvhFile(const std::string& bvh_path, const RetargetMapping& mapping,
                                IDynamicsModel& model);
+
+/// retargetBvh() of the window [@p start_s, @p end_s] (s) of @p bvh as a clip of its own:
+/// bvhWindow() from the mapping's skip_frames, which the window replaces. What is calibrated
+/// over a clip (ground offset, sole levelling) comes from the window's frames;
+/// first_bvh_frame is the window's first frame in @p bvh.
+/// @throws as bvhWindow() and retargetBvh().
+RetargetResult retargetBvhWindow(const BvhMotion& bvh, const RetargetMapping& mapping,
+                                 IDynamicsModel& model, double start_s, double end_s);
 
 /// Writes a reference motion CSV (README "Reference motion file"): time, base pose and
 /// joint positions, %.17g. @throws InputError when the file cannot be written.
