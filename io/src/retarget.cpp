@@ -748,14 +748,15 @@ RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
 }
 
 RetargetResult retargetBvhFile(const std::string& bvh_path, const RetargetMapping& mapping,
-                               IDynamicsModel& model) {
+                               IDynamicsModel& model, double start_s, double end_s) {
   BvhReadOptions options;
   options.length_scale = mapping.length_scale;
-  return retargetBvh(readBvh(bvh_path, options), mapping, model);
+  return retargetBvhWindow(readBvh(bvh_path, options), mapping, model, start_s, end_s);
 }
 
 RetargetResult retargetBvhWindow(const BvhMotion& bvh, const RetargetMapping& mapping,
                                  IDynamicsModel& model, double start_s, double end_s) {
+  if (start_s == 0.0 && std::isinf(end_s) && end_s > 0.0) return retargetBvh(bvh, mapping, model);
   const BvhMotion window = bvhWindow(bvh, mapping.skip_frames, start_s, end_s);
   RetargetMapping from_window = mapping;
   from_window.skip_frames = 0;  // the window starts after them

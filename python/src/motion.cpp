@@ -300,13 +300,8 @@ void bindMotion(py::module_& m) {
   m.def("retarget_file",
         [](const std::string& bvh_path, const io::RetargetMapping& mapping, Model& model,
            bool cleanup, std::optional<double> start_s, std::optional<double> end_s) {
-          if (!start_s && !end_s)
-            return retargetClip(io::retargetBvhFile(bvh_path, mapping, *model.engine), mapping,
-                                model, cleanup);
-          io::BvhReadOptions read;
-          read.length_scale = mapping.length_scale;
-          return retargetClip(io::retargetBvhWindow(io::readBvh(bvh_path, read), mapping, *model.engine,
-                                                    start_s.value_or(0.0), end_s.value_or(kToTheEnd)),
+          return retargetClip(io::retargetBvhFile(bvh_path, mapping, *model.engine, start_s.value_or(0.0),
+                                                  end_s.value_or(kToTheEnd)),
                               mapping, model, cleanup);
         },
         py::arg("bvh_path"), py::arg("mapping"), py::arg("model"), py::arg("cleanup") = true,
@@ -317,8 +312,6 @@ void bindMotion(py::module_& m) {
   m.def("retarget",
         [](const io::BvhMotion& bvh, const io::RetargetMapping& mapping, Model& model, bool cleanup,
            std::optional<double> start_s, std::optional<double> end_s) {
-          if (!start_s && !end_s)
-            return retargetClip(io::retargetBvh(bvh, mapping, *model.engine), mapping, model, cleanup);
           return retargetClip(io::retargetBvhWindow(bvh, mapping, *model.engine, start_s.value_or(0.0),
                                                     end_s.value_or(kToTheEnd)),
                               mapping, model, cleanup);

@@ -92,12 +92,8 @@ int main(int argc, char** argv) {
     if (clamp) mapping.clamp_to_limits = true;
     if (allow_unmapped) mapping.allow_unmapped = true;
     auto model = dynfilter::makeModel(backend, dynfilter::tools::loadRobot(model_path, model_cli), {});
-    dynfilter::io::BvhReadOptions read;
-    read.length_scale = mapping.length_scale;
     const dynfilter::io::RetargetResult result =
-        start_opt->count() > 0 || end_opt->count() > 0
-            ? dynfilter::io::retargetBvhWindow(dynfilter::io::readBvh(bvh_path, read), mapping, *model, start_s, end_s)
-            : dynfilter::io::retargetBvhFile(bvh_path, mapping, *model);
+        dynfilter::io::retargetBvhFile(bvh_path, mapping, *model, start_s, end_s);
 
     std::string report;
     char line[512];

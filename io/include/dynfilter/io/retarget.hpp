@@ -75,6 +75,7 @@
 /// limits). Joints outside the model's limits are reported (JointLimitReport), and clamped
 /// only with clamp_to_limits. Velocities and accelerations by estimateDerivatives().
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -228,17 +229,20 @@ struct RetargetResult {
 RetargetResult retargetBvh(const BvhMotion& bvh, const RetargetMapping& mapping,
                            IDynamicsModel& model);
 
-/// readBvh(path, {mapping.length_scale}) then retargetBvh().
-RetargetResult retargetBvhFile(const std::string& bvh_path, const RetargetMapping& mapping,
-                               IDynamicsModel& model);
-
 /// retargetBvh() of the window [@p start_s, @p end_s] (s) of @p bvh as a clip of its own:
 /// bvhWindow() from the mapping's skip_frames, which the window replaces. What is calibrated
 /// over a clip (ground offset, sole levelling) comes from the window's frames;
-/// first_bvh_frame is the window's first frame in @p bvh.
+/// first_bvh_frame is the window's first frame in @p bvh. The default window, [0, ∞), is
+/// retargetBvh() itself.
 /// @throws as bvhWindow() and retargetBvh().
 RetargetResult retargetBvhWindow(const BvhMotion& bvh, const RetargetMapping& mapping,
-                                 IDynamicsModel& model, double start_s, double end_s);
+                                 IDynamicsModel& model, double start_s = 0.0,
+                                 double end_s = std::numeric_limits<double>::infinity());
+
+/// readBvh(path, {mapping.length_scale}) then retargetBvhWindow().
+RetargetResult retargetBvhFile(const std::string& bvh_path, const RetargetMapping& mapping,
+                               IDynamicsModel& model, double start_s = 0.0,
+                               double end_s = std::numeric_limits<double>::infinity());
 
 /// Writes a reference motion CSV (README "Reference motion file"): time, base pose and
 /// joint positions, %.17g. @throws InputError when the file cannot be written.
