@@ -100,26 +100,33 @@ def scale_time(src, dst, speed):
     Path(dst).write_text("\n".join(out) + "\n")
 
 
+def make_reference(name, build, out, mapping_path, extra_args=()):
+    """The case's reference, out/<name>_reference.csv: its clip (mirrored if the case says so)
+    through dynfilter-bvh2ref with @p mapping_path, its window and @p extra_args, then its time
+    scaled by the case's speed."""
+    case = CASES[name]
+    bvh_path = pr.CMU / case.bvh
+    if case.mirrored:
+        bvh_path = out / f"{name}.bvh"
+        mirror_bvh(pr.CMU / case.bvh, bvh_path)
+    ref = out / f"{name}_reference.csv"
+    subprocess.run([str(build / "tools/bvh2ref/dynfilter-bvh2ref"), str(bvh_path), "--mapping",
+                    str(mapping_path), "-o", str(ref), *extra_args, *window_args(case)],
+                   check=True, capture_output=True)
+    if case.speed != 1.0:
+        scale_time(ref, ref, case.speed)
+    return ref
+
+
 def run_case(name, args, build, out):
     pr.MODEL_INFO = build / "tools" / "model_info" / "dynfilter-model-info"
-    case = CASES[name]
-    bvh, mapping, speed, slope, backend, mirrored = case[:6]
-    bvh_path = pr.CMU / bvh
-    if mirrored:
-        bvh_path = out / f"{name}.bvh"
-        mirror_bvh(pr.CMU / bvh, bvh_path)
-    ref = out / f"{name}_reference.csv"
-    mapping_path = (Path(args.mappings) if args.mappings else pr.CMU / "mappings") / mapping
+    slope, backend = CASES[name].slope, CASES[name].backend
+    mapping_path = (Path(args.mappings) if args.mappings else pr.CMU / "mappings") / CASES[name].mapping
     if args.cleanup:
         mapping_text = mapping_path.read_text()
         mapping_path = out / f"{name}_mapping.yaml"
         mapping_path.write_text(mapping_text + f"\ncleanup: {args.cleanup}\n")
-    subprocess.run([str(build / "tools/bvh2ref/dynfilter-bvh2ref"), str(bvh_path), "--mapping",
-                    str(mapping_path), "-o", str(ref), "--report", str(out / f"{name}_bvh2ref.txt"),
-                    *window_args(case)],
-                   check=True, capture_output=True)
-    if speed != 1.0:
-        scale_time(ref, ref, speed)
+    ref = make_reference(name, build, out, mapping_path, ["--report", str(out / f"{name}_bvh2ref.txt")])
     fil = out / f"{name}_{args.mode}.csv"
     events = out / f"{name}_{args.mode}.events.csv"
     bodies = out / f"{name}_{args.mode}.bodies.csv"

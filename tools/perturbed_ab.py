@@ -28,22 +28,6 @@ import balance_matrix as bm  # noqa: E402
 import paper_results as pr  # noqa: E402
 
 
-def reference_of(name, build, out):
-    case = bm.CASES[name]
-    bvh, mapping, speed, _, _, mirrored = case[:6]
-    bvh_path = pr.CMU / bvh
-    if mirrored:
-        bvh_path = out / f"{name}.bvh"
-        bm.mirror_bvh(pr.CMU / bvh, bvh_path)
-    ref = out / f"{name}_reference.csv"
-    subprocess.run([str(build / "tools/bvh2ref/dynfilter-bvh2ref"), str(bvh_path), "--mapping",
-                    str(pr.CMU / "mappings" / mapping), "-o", str(ref), *bm.window_args(case)],
-                   check=True, capture_output=True)
-    if speed != 1.0:
-        bm.scale_time(ref, ref, speed)
-    return ref
-
-
 def perturb(src, dst, seed, noise):
     lines = Path(src).read_text().splitlines()
     header = lines[0].split(",")
@@ -112,7 +96,7 @@ def main():
         refs = {}
         for b in per_build:
             (out / f"b{b}").mkdir(exist_ok=True)
-            refs[b] = reference_of(name, builds[b], out / f"b{b}")
+            refs[b] = bm.make_reference(name, builds[b], out / f"b{b}", pr.CMU / "mappings" / bm.CASES[name].mapping)
         for seed in range(args.seeds):
             perturbed = {}  # one perturbed copy per reference, shared when both builds use it
             for b in per_build:
