@@ -3,7 +3,7 @@
 
     build/venv/bin/python tools/balance_matrix.py [--out build/balance_matrix] [--mode qp]
         [--config c.yaml] [--cleanup '{balance: false}'] [--only walk,jump] [--jobs 2]
-        [--markdown table.md]
+        [--markdown table.md] [--refilter]
 
 Cases: walk, jump, kick (level ground, DART), the walk with the ODE backend, played 0.8× and
 1.25× as fast (the reference's time column scaled), on a 10° downhill and a 5° uphill slope
@@ -13,7 +13,10 @@ come from dynfilter-bvh2ref with its default clean-up. Per case: re-seeding tick
 tick, --events-csv), joint RMS overall and per group, base position RMS against the
 reference as received, the largest per-frame base jump, stance skate, penetration, frames
 with a pulling contact / a force outside its cone / a CoP outside its support / a torque at
-its limit, and Eq. 12's base rows relative to the body weight.
+its limit, and Eq. 12's base rows relative to the body weight. With --refilter, also whether the filter gives
+a physically consistent motion back unchanged: its own output before the first re-seed,
+written every tick, filtered again; when its joints first leave that reference by more than
+0.01 rad RMS, the largest RMS, and its re-seeds.
 """
 import argparse
 import concurrent.futures as cf
@@ -118,6 +121,42 @@ def make_reference(name, build, out, mapping_path, extra_args=()):
     return ref
 
 
+# The re-filtered motion has left its reference once its joints' RMS error passes this (rad).
+DEPARTURE_RAD = 0.01
+
+
+def departure(filtered_csv, threshold_rad=DEPARTURE_RAD):
+    """(The first time the joints' RMS tracking error (the err.* columns but the base's) passes
+    @p threshold_rad, or None; the largest RMS over the file) of a dynfilter-offline output."""
+    table = pr.read_table(filtered_csv)
+    joints = [k for k in table if k.startswith("err.") and not k.startswith("err.base")]
+    e = np.sqrt(np.mean([table[k] ** 2 for k in joints], axis=0))
+    over = np.nonzero(e > threshold_rad)[0]
+    return (float(table["time"][over[0]]) if len(over) else None), float(e.max())
+
+
+def refilter(offline, reference, out, stem, filter_args, until_s=None):
+    """Whether the filter gives its own output back: @p reference filtered with every tick
+    written (up to @p until_s, e.g. the first re-seed: the motion before it is physically
+    consistent), and that output filtered again as a reference with the same @p filter_args.
+    Returns departure() of the second pass, and its re-seeding ticks and falls."""
+    first = out / f"{stem}_every_tick.csv"
+    subprocess.run([str(offline), str(reference), "-o", str(first), "--every-tick", *filter_args],
+                   check=True, capture_output=True)
+    if until_s is not None:
+        lines = first.read_text().splitlines()
+        keep = [lines[0]] + [l for l in lines[1:] if float(l.split(",", 1)[0]) < until_s]
+        first.write_text("\n".join(keep) + "\n")
+    second = out / f"{stem}_refiltered.csv"
+    events = out / f"{stem}_refiltered.events.csv"
+    subprocess.run([str(offline), str(first), "-o", str(second), "--skip-extra-columns", "--events-csv",
+                    str(events), *filter_args], check=True, capture_output=True)
+    departs_s, max_rms = departure(second)
+    ticks, falls = pr.count_reseeds(events)
+    return {"refilter_departs_s": departs_s, "refilter_max_rms_rad": max_rms, "refilter_reseed_ticks": ticks,
+            "refilter_reseed_falls": falls}
+
+
 def run_case(name, args, build, out):
     pr.MODEL_INFO = build / "tools" / "model_info" / "dynfilter-model-info"
     slope, backend = CASES[name].slope, CASES[name].backend
@@ -130,17 +169,23 @@ def run_case(name, args, build, out):
     fil = out / f"{name}_{args.mode}.csv"
     events = out / f"{name}_{args.mode}.events.csv"
     bodies = out / f"{name}_{args.mode}.bodies.csv"
-    cmd = [str(build / "tools/offline/dynfilter-offline"), str(ref), "-o", str(fil), "--no-progress", "-q",
-           "--mode", args.mode, "--backend", backend, "--events-csv", str(events), "--bodies-csv", str(bodies)]
+    offline = build / "tools/offline/dynfilter-offline"
+    filter_args = ["--no-progress", "-q", "--mode", args.mode, "--backend", backend]
     if slope:
         heading, _ = pr.heading_of(ref)
-        cmd += ["--slope-deg", f"{slope:g}", "--slope-heading-deg", f"{heading:.1f}"]
+        filter_args += ["--slope-deg", f"{slope:g}", "--slope-heading-deg", f"{heading:.1f}"]
     if args.config:
-        cmd += ["--config", args.config]
-    subprocess.run(cmd, check=True, capture_output=True)
+        filter_args += ["--config", args.config]
+    subprocess.run([str(offline), str(ref), "-o", str(fil), "--events-csv", str(events), "--bodies-csv", str(bodies),
+                    *filter_args], check=True, capture_output=True)
     model = pr.Model(pr.URDF)
     m = pr.metrics_of(fil, out / f"{name}_{args.mode}.contacts.csv", model)
     m.update(pr.motion_metrics(fil, ref, bodies, out / f"{name}_{args.mode}.contacts.csv", events, model))
+    if args.refilter:
+        with open(events, newline="") as f:
+            times = [float(r["time"]) for r in csv.DictReader(f) if int(r["status"]) & 16]
+        m.update(refilter(offline, ref, out, f"{name}_{args.mode}", filter_args,
+                          times[0] - REFILTER_MARGIN_S if times else None))
     return name, m
 
 
@@ -164,6 +209,16 @@ COLUMNS = [
     ("frames_sliding", "sliding", "{}"),
     ("max_base_residual_rel_bw", "Eq. 12 base / weight", "{:.1e}"),
 ]
+# --refilter: the filter's output before its first re-seed, filtered again.
+REFILTER_COLUMNS = [
+    ("refilter_departs_s", "re-filter departs (s)", "{:.3f}"),
+    ("refilter_max_rms_rad", "re-filter joints max (rad)", "{:.3f}"),
+    ("refilter_reseed_ticks", "re-filter re-seeds", "{:d}"),
+    ("refilter_reseed_falls", "re-filter falls", "{:d}"),
+]
+# The re-filtered motion ends this long before the first re-seed: the figure falling into it
+# is consistent, but the guard's teleport is not (s).
+REFILTER_MARGIN_S = 0.05
 
 
 def main():
@@ -179,7 +234,12 @@ def main():
     ap.add_argument("--only", default=",".join(CASES))
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--markdown")
+    ap.add_argument("--refilter", action="store_true",
+                    help="also filter each case's output (every tick, up to its first re-seed) again as a "
+                    "reference, and report when and how far that leaves it (a consistent motion should come "
+                    "back unchanged)")
     args = ap.parse_args()
+    columns = COLUMNS + (REFILTER_COLUMNS if args.refilter else [])
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     build = Path(args.build_dir).resolve()
@@ -188,10 +248,10 @@ def main():
     with cf.ProcessPoolExecutor(max_workers=args.jobs) as pool:
         for name, m in pool.map(run_case, names, [args] * len(names), [build] * len(names), [out] * len(names)):
             results[name] = m
-            print(name, " ".join(f"{k}={m.get(k)}" for k, _, _ in COLUMNS), flush=True)
-    L = ["| case | " + " | ".join(h for _, h, _ in COLUMNS) + " |", "|---|" + "---:|" * len(COLUMNS)]
+            print(name, " ".join(f"{k}={m.get(k)}" for k, _, _ in columns), flush=True)
+    L = ["| case | " + " | ".join(h for _, h, _ in columns) + " |", "|---|" + "---:|" * len(columns)]
     for name in names:
-        L.append(f"| {name} | " + " | ".join(pr.fmt(results[name], k, f) for k, _, f in COLUMNS) + " |")
+        L.append(f"| {name} | " + " | ".join(pr.fmt(results[name], k, f) for k, _, f in columns) + " |")
     total = sum(int(results[n]["reseed_ticks"]) for n in names)
     falls = sum(int(results[n]["reseed_falls"]) for n in names)
     L.append(f"\nre-seeding ticks over all cases: {total}, of which falls: {falls}")

@@ -3,10 +3,13 @@ and the mirrored CMU walk retargeted to the human figure is the walk with its si
 swapped: in the raw retargeting (no clean-up) the left knee of the mirrored reference bends
 as the right knee of the original and the base keeps its height, frame by frame and exactly. Also the matrix's re-seed
 columns: every tick with the re-seed bit, and the falls among them by the guard's reason,
-read from an events file whose quoted fields hold commas. Run with the venv's python (ctest
-balance_matrix_mirror); exits 77 (skipped) when numpy is missing.
+read from an events file whose quoted fields hold commas. And its --refilter check: the
+departure time of a synthetic output, and the squat (a physically consistent motion once
+filtered, both soles flat throughout) given back by the QP mode unchanged. Run with the venv's
+python (ctest balance_matrix_mirror); exits 77 (skipped) when numpy is missing.
 
-    build/venv/bin/python tests/tools/balance_matrix_test.py --bvh2ref build/tools/bvh2ref/dynfilter-bvh2ref
+    build/venv/bin/python tests/tools/balance_matrix_test.py --bvh2ref build/tools/bvh2ref/dynfilter-bvh2ref \
+        --offline build/tools/offline/dynfilter-offline
 """
 import argparse
 import subprocess
@@ -34,6 +37,7 @@ def motion(path):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--bvh2ref", required=True)
+    ap.add_argument("--offline", required=True)
     args = ap.parse_args()
     try:
         import numpy as np
@@ -68,6 +72,21 @@ def main():
             fail(f"re-seeds and falls by tilt: {pr.count_reseeds(split)}, expected (4, 2)")
         if pr.count_reseeds(tmp / "none.csv") != (0, 0):
             fail("a missing events file does not count as no re-seed")
+        # Departure: the joints' RMS error (base columns left out) passes 0.01 rad at 0.2 s.
+        synthetic = tmp / "synthetic.csv"
+        synthetic.write_text("time,err.base_x,err.a,err.b\n0.0,0.5,0.0,0.0\n0.1,0.5,0.008,0.011\n"
+                             "0.2,0.0,0.012,0.012\n0.3,0.0,0.0,0.03\n")
+        departs_s, max_rms = bm.departure(synthetic)
+        if departs_s != 0.2 or abs(max_rms - 0.03 / np.sqrt(2)) > 1e-12:
+            fail(f"departure of the synthetic output: {departs_s} s, {max_rms} rad; expected 0.2 s, 0.0212 rad")
+        squat = bm.refilter(args.offline, ROOT / "data" / "squat_reference.csv", tmp, "squat",
+                            ["--no-progress", "-q", "--mode", "qp"])
+        print(f"squat re-filtered: departs {squat['refilter_departs_s']}, joints max "
+              f"{squat['refilter_max_rms_rad']:.2e} rad RMS, re-seeds {squat['refilter_reseed_ticks']}")
+        if squat["refilter_departs_s"] is not None or squat["refilter_max_rms_rad"] > 2e-3 or \
+                squat["refilter_reseed_ticks"]:
+            fail(f"the squat's filtered motion filtered again is not given back: {squat}")
+
         once, twice = tmp / "once.bvh", tmp / "twice.bvh"
         bm.mirror_bvh(BVH, once)
         bm.mirror_bvh(once, twice)
